@@ -1,0 +1,43 @@
+"""``forcemap`` command line: record / convert / segment / fit / eval / report.
+
+Each subcommand lives in its own module exposing ``add_arguments(parser)`` and ``run(args) -> int``;
+modules are imported only when their subcommand runs, so ``forcemap --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+# name -> (module, one-line help)
+SUBCOMMANDS: dict[str, tuple[str, str]] = {
+    "record": ("lerobot_forcemap.envs.record", "record scripted demonstrations of a sim task into a LeRobot dataset"),
+    "convert": ("lerobot_forcemap.data.convert", "convert lab-recorder / GBTI h5 files into a LeRobot v3 dataset"),
+    "segment": ("lerobot_forcemap.data.segment", "segment a dataset's episodes and write the segments back"),
+    "fit": ("lerobot_forcemap.experiments.fit", "fit a forcemap policy from a dataset and save a checkpoint"),
+    "eval": ("lerobot_forcemap.experiments.evaluate", "evaluate a policy in a sim task, one JSON record per episode"),
+    "report": ("lerobot_forcemap.experiments.report", "tables and plots from eval records"),
+}
+
+
+def build_parser(argv: list[str]) -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="forcemap", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    chosen = next((a for a in argv if not a.startswith("-")), None)
+    for name, (module, help_text) in SUBCOMMANDS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        if name == chosen:
+            importlib.import_module(module).add_arguments(p)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser(argv).parse_args(argv)
+    module = importlib.import_module(SUBCOMMANDS[args.command][0])
+    return int(module.run(args) or 0)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,105 @@
+"""The one definition of feature names and of the observation / action layouts (SPEC §3).
+
+Datasets, envs, the policy and the experiments all import these names; nothing else defines them.
+This module is pure Python (floor 1): no LeRobot, torch or MuJoCo import.
+
+Action — absolute Cartesian target in the robot base frame plus a gripper command, float32, shape (8,):
+
+    index  0  1  2  3   4   5   6   7
+    name   x  y  z  qw  qx  qy  qz  gripper
+
+    x, y, z      tool-centre-point (TCP) target position, metres, base frame
+    qw..qz       TCP target orientation, unit quaternion, scalar first (MuJoCo's order)
+    gripper      0 = fully open, 1 = fully closed (the env maps it to its own actuator range)
+
+Observation (LeRobot keys; the raw env keys in brackets are what `lerobot-eval` renames them from):
+
+    observation.state      [agent_pos]          joint positions (rad) then gripper opening (0 open .. 1 closed)
+    observation.ee_pose    [ee_pose]            TCP position (m) + quaternion (w first), base frame
+    observation.force      [force]              wrist wrench fx fy fz (N) tx ty tz (N·m), base frame, tared,
+                                                low-passed; the wrench the environment exerts on the robot, so a
+                                                pressing contact reads as a force pointing away from the surface
+    observation.finger_force [finger_force]     fingertip forces (N), flattened per finger (e.g. f0x f0y f0z f1x ...)
+    observation.environment_state [environment_state]  privileged object state (task-specific names)
+    observation.images.<cam> [pixels[<cam>]]    optional camera images
+"""
+
+from __future__ import annotations
+
+from typing import Final
+
+# ---- feature keys (LeRobot dataset / policy side) ------------------------------------------------
+OBS_STATE: Final = "observation.state"
+OBS_EE_POSE: Final = "observation.ee_pose"
+OBS_FORCE: Final = "observation.force"
+OBS_FINGER_FORCE: Final = "observation.finger_force"
+OBS_ENV_STATE: Final = "observation.environment_state"
+OBS_IMAGES_PREFIX: Final = "observation.images."
+ACTION: Final = "action"
+# Timestamps of the source recording, kept next to LeRobot's resampled `timestamp` column. Not under
+# `observation.` on purpose: LeRobot then ignores it as a policy input.
+SOURCE_TIMESTAMP: Final = "source_timestamp"
+# Per-frame segment label written back by `forcemap segment` (when subtasks are not used).
+SEGMENT_INDEX: Final = "segment_index"
+
+# ---- raw env observation keys (gymnasium side); LeRobot 0.6.1 maps agent_pos -> observation.state,
+# environment_state -> observation.environment_state, pixels -> observation.images.*, any other key k -> observation.k
+ENV_AGENT_POS: Final = "agent_pos"
+ENV_EE_POSE: Final = "ee_pose"
+ENV_FORCE: Final = "force"
+ENV_FINGER_FORCE: Final = "finger_force"
+ENV_STATE: Final = "environment_state"
+ENV_PIXELS: Final = "pixels"
+
+ENV_TO_FEATURE: Final[dict[str, str]] = {
+    ENV_AGENT_POS: OBS_STATE,
+    ENV_EE_POSE: OBS_EE_POSE,
+    ENV_FORCE: OBS_FORCE,
+    ENV_FINGER_FORCE: OBS_FINGER_FORCE,
+    ENV_STATE: OBS_ENV_STATE,
+}
+
+# ---- action layout ---------------------------------------------------------------------------------
+ACTION_NAMES: Final = ("x", "y", "z", "qw", "qx", "qy", "qz", "gripper")
+ACTION_DIM: Final = len(ACTION_NAMES)
+ACTION_POS: Final = slice(0, 3)
+ACTION_QUAT: Final = slice(3, 7)
+ACTION_GRIPPER: Final = 7
+GRIPPER_OPEN: Final = 0.0
+GRIPPER_CLOSED: Final = 1.0
+
+# ---- observation layouts -----------------------------------------------------------------------------
+EE_POSE_NAMES: Final = ("x", "y", "z", "qw", "qx", "qy", "qz")
+EE_POSE_DIM: Final = len(EE_POSE_NAMES)
+EE_POS: Final = slice(0, 3)
+EE_QUAT: Final = slice(3, 7)
+
+FORCE_NAMES: Final = ("fx", "fy", "fz", "tx", "ty", "tz")
+FORCE_DIM: Final = len(FORCE_NAMES)
+FORCE_LINEAR: Final = slice(0, 3)
+FORCE_TORQUE: Final = slice(3, 6)
+
+GRIPPER_STATE_NAME: Final = "gripper"
+
+UNITS: Final[dict[str, str]] = {
+    OBS_STATE: "joint positions rad; gripper opening 0 (open) .. 1 (closed)",
+    OBS_EE_POSE: "position m; quaternion w x y z (unit); base frame",
+    OBS_FORCE: "force N, torque N·m; base frame; tared; reaction on the robot (points away from a contact surface)",
+    OBS_FINGER_FORCE: "N per fingertip (3-D vectors flattened, or a scalar normal force per finger)",
+    ACTION: "x y z m, qw qx qy qz unit quaternion, base frame; gripper 0 (open) .. 1 (closed)",
+    SOURCE_TIMESTAMP: "s, time of the source recording (before resampling)",
+}
+
+
+def state_names(joint_names: tuple[str, ...] | list[str]) -> tuple[str, ...]:
+    """Names of `observation.state`: the arm's joints then the gripper opening."""
+    return (*joint_names, GRIPPER_STATE_NAME)
+
+
+def finger_force_names(n_fingers: int, axes: str = "xyz") -> tuple[str, ...]:
+    """Names of `observation.finger_force`: `f<i><axis>` per finger (axes="" gives one scalar `f<i>` each)."""
+    if n_fingers < 1:
+        raise ValueError(f"n_fingers must be >= 1, got {n_fingers}")
+    if not axes:
+        return tuple(f"f{i}" for i in range(n_fingers))
+    return tuple(f"f{i}{a}" for i in range(n_fingers) for a in axes)
