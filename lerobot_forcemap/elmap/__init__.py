@@ -1,0 +1,53 @@
+"""Force-constrained elastic maps (paper §III-B/C, SPEC §1). Pure NumPy/SciPy/Clarabel: no LeRobot,
+torch or MuJoCo import here.
+
+    from lerobot_forcemap.elmap import fit_force_elastic_map, Constraints, ElasticMapFit
+"""
+
+from .constraints import Constraints, ResolvedConstraints, resolve_constraints
+from .fit import (
+    DEFAULT_DELTA,
+    DEFAULT_F_CONTACT,
+    DEFAULT_LAMBDA,
+    DEFAULT_MU,
+    DEFAULT_STIFFNESS,
+    ElasticMapFit,
+    arc_length_resample,
+    assign_nearest,
+    fit_force_elastic_map,
+)
+from .solve import (
+    BandedMStep,
+    EnergyTerms,
+    InequalityRows,
+    energy_terms,
+    solve_m_step_banded,
+    solve_m_step_clarabel,
+)
+from .weights import ForcePoints, ForceWeights, cluster_sums, force_point_weights, make_force_points
+
+__all__ = [
+    "Constraints",
+    "ResolvedConstraints",
+    "resolve_constraints",
+    "ElasticMapFit",
+    "fit_force_elastic_map",
+    "assign_nearest",
+    "arc_length_resample",
+    "EnergyTerms",
+    "InequalityRows",
+    "energy_terms",
+    "BandedMStep",
+    "solve_m_step_banded",
+    "solve_m_step_clarabel",
+    "ForcePoints",
+    "ForceWeights",
+    "cluster_sums",
+    "force_point_weights",
+    "make_force_points",
+    "DEFAULT_LAMBDA",
+    "DEFAULT_MU",
+    "DEFAULT_DELTA",
+    "DEFAULT_F_CONTACT",
+    "DEFAULT_STIFFNESS",
+]

@@ -1,0 +1,482 @@
+"""Force-constrained elastic map: EM fit (paper §III-B/C, SPEC §1).
+
+    fit = fit_force_elastic_map(positions, forces, n_nodes=100)
+    fit.nodes            # (N, d) the reproduction path
+    fit.position_at(t)   # query along the time law
+
+E-step: every demo sample goes to its nearest node (one vectorised distance matrix). M-step: the
+banded solve of :mod:`.solve` (Clarabel when inequality constraints are present). Force points are
+tied to the node of their source sample; their weights are recomputed every iteration.
+
+Decisions where the paper is silent (documented in the README too):
+- ``S`` (the approximation-energy normaliser) sums the norms of the *demo* point weights only.
+  Force-point weights change every iteration; counting them in S would couple the axes (a force on z
+  would change the fit on x) and make the force's effect scale down with its own size.
+- The spring length ``Δ_j`` is under-relaxed, ``Δ ← (1−ω_j)Δ + ω_j·max(‖p_j − y‖, δ)``. The fixed
+  point is the same as plain recomputation (ω = 1), but plain recomputation is the map
+  ``Δ ↦ δΔ/(Δ − |f|/k)`` for a cluster in steady contact, whose slope at the fixed point
+  ``Δ* = δ + |f|/k`` is ``−a`` with ``a = |f|/(kδ)``: it converges slowly for a near 1 and oscillates
+  between two placements for a > 1. ``spring_relaxation="auto"`` uses ``ω_j = 1/(1 + a_j)``, which
+  zeroes that slope (one-step convergence for uniform contact, a contraction for every force the
+  ``rho_max`` cap leaves uncapped); a float sets one ω for all points.
+- Stop reasons: ``"converged"`` (assignments unchanged, and nodes and spring lengths moved less
+  than ``xtol`` times the data scale), ``"energy_tol"`` (the assignment still changed but the relative energy change
+  fell below ``tol``), ``"cycle"`` (assignment and nodes alternate between two states),
+  ``"max_iter"``. Without force points an unchanged assignment gives identical nodes, which is the
+  authors' stop rule; with force points the spring lengths keep converging after the assignment
+  settles, so "converged" also waits for the nodes to stop.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..geometry import slerp_sequence
+from .constraints import Constraints, ResolvedConstraints, resolve_constraints
+from .solve import BandedMStep, EnergyTerms, InequalityRows, energy_terms, solve_m_step_clarabel
+from .timing import node_orientations, node_time_law
+from .weights import ForcePoints, cluster_sums, force_point_weights, make_force_points, row_norms
+
+__all__ = [
+    "ElasticMapFit",
+    "fit_force_elastic_map",
+    "assign_nearest",
+    "arc_length_resample",
+    "DEFAULT_LAMBDA",
+    "DEFAULT_MU",
+    "DEFAULT_DELTA",
+    "DEFAULT_F_CONTACT",
+    "DEFAULT_STIFFNESS",
+]
+
+Array = NDArray[np.float64]
+
+DEFAULT_LAMBDA = 0.01
+DEFAULT_MU = 0.01
+#: m — offset of a force point behind the demonstrated contact
+DEFAULT_DELTA = 0.01
+#: N — force norm above which a sample counts as contact (after tare and low-pass)
+DEFAULT_F_CONTACT = 2.0
+#: N/m — chosen so that r = F/(k·δ) stays below rho_max = 0.75 up to F = 100 N at δ = 1 cm
+#: (100 / (15000 · 0.01) = 0.67); a node in steady contact then lifts by F/k (6.7 mm at 100 N).
+DEFAULT_STIFFNESS = 15000.0
+
+
+@dataclass(frozen=True)
+class ElasticMapFit:
+    """Result of :func:`fit_force_elastic_map`.
+
+    nodes (N, d); node_times (N,) seconds from the segment start; orientations (N, 4) w-first or None;
+    labels (M,) node of every stacked demo sample; capped_nodes (C, 2) rows (node, axis) whose force
+    weights were scaled down by the rho_max cap in the last iteration.
+    """
+
+    nodes: Array
+    node_times: Array
+    n_iter: int
+    stop_reason: str
+    energy: EnergyTerms
+    capped_nodes: NDArray[np.intp]
+    orientations: Array | None
+    labels: NDArray[np.intp]
+    duration: float
+    n_force_points: int
+    n_force_limit_rows: int
+    solver: str
+    energy_history: tuple[float, ...] = field(repr=False, default=())
+
+    @property
+    def n_nodes(self) -> int:
+        return self.nodes.shape[0]
+
+    @property
+    def dim(self) -> int:
+        return self.nodes.shape[1]
+
+    def position_at(self, t: ArrayLike) -> Array:
+        """Positions (len(t), d) along the time law (linear between nodes, clamped at the ends)."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        return np.stack([np.interp(t, self.node_times, self.nodes[:, q]) for q in range(self.dim)], axis=1)
+
+    def orientation_at(self, t: ArrayLike) -> Array:
+        """Quaternions (len(t), 4) along the time law (SLERP between nodes)."""
+        if self.orientations is None:
+            raise ValueError("orientation_at: this map was fitted without orientations")
+        return slerp_sequence(self.node_times, self.orientations, t)
+
+
+# ----------------------------------------------------------------------------------------------
+# E-step and initialisation
+
+
+def assign_nearest(points: Array, nodes: Array, *, augmented: Array | None = None) -> NDArray[np.intp]:
+    """Index of the nearest node for every point: points (M, d), nodes (N, d) -> (M,).
+
+    ``‖x − y‖² = ‖x‖² − 2x·y + ‖y‖²`` and ``‖x‖²`` is the same for every node of a row, so one matrix
+    product ``[x, 1] @ [−2yᵀ; ‖y‖²]`` (M, N) and an argmin give the assignment. ``augmented`` is
+    ``[points, 1]`` (M, d+1) when the caller reuses it across iterations.
+    """
+    if augmented is None:
+        augmented = np.hstack([points, np.ones((len(points), 1))])
+    rhs = np.empty((nodes.shape[1] + 1, nodes.shape[0]))
+    np.multiply(nodes.T, -2.0, out=rhs[:-1])
+    rhs[-1] = np.einsum("ij,ij->i", nodes, nodes)
+    return np.argmin(augmented @ rhs, axis=1)
+
+
+class NearestNodeAssigner:
+    """The E-step across EM iterations, with Hamerly's bounds (as in fast exact k-means).
+
+    Each sample keeps an upper bound on the distance to its node and a lower bound on the distance
+    to every other node. When nodes move by ``m_i`` the bounds loosen by ``m_a(j)`` and ``max_i m_i``;
+    only samples whose bounds cross are re-examined, and only those that still cross get a full row
+    of distances. The result equals :func:`assign_nearest` (up to exact ties): late EM iterations,
+    where nodes move by nanometres, cost a few vector operations instead of an (M, N) product.
+    """
+
+    def __init__(self, points: Array) -> None:
+        self.points = points
+        self.augmented = np.hstack([points, np.ones((len(points), 1))])
+        self.sq = np.einsum("ij,ij->i", points, points)
+        self.labels: NDArray[np.intp] | None = None
+        self.nodes: Array | None = None
+        # slack against rounding in the bounds: a sample is re-examined unless clearly decided
+        self.slack = 1e-9 * max(float(np.max(np.ptp(points, axis=0))), 1e-12)
+
+    def _full(self, idx: NDArray[np.intp] | slice, nodes: Array) -> tuple[NDArray[np.intp], Array, Array]:
+        rhs = np.empty((nodes.shape[1] + 1, nodes.shape[0]))
+        np.multiply(nodes.T, -2.0, out=rhs[:-1])
+        rhs[-1] = np.einsum("ij,ij->i", nodes, nodes)
+        d2 = self.augmented[idx] @ rhs
+        rows = np.arange(d2.shape[0])
+        first = np.argmin(d2, axis=1)
+        best = d2[rows, first].copy()
+        d2[rows, first] = np.inf
+        second = np.min(d2, axis=1) if nodes.shape[0] > 1 else np.full(len(rows), np.inf)
+        sq = self.sq[idx]
+        return first, np.sqrt(np.maximum(best + sq, 0.0)), np.sqrt(np.maximum(second + sq, 0.0))
+
+    def __call__(self, nodes: Array) -> NDArray[np.intp]:
+        if self.labels is None or self.nodes is None or self.nodes.shape != nodes.shape:
+            self.labels, self.upper, self.lower = self._full(slice(None), nodes)
+        else:
+            move = row_norms(nodes - self.nodes)
+            self.upper += move[self.labels]
+            self.lower -= move.max()
+            idx = np.flatnonzero(self.upper + self.slack >= self.lower)
+            if len(idx):
+                self.upper[idx] = row_norms(self.points[idx] - nodes[self.labels[idx]])
+                idx = idx[self.upper[idx] + self.slack >= self.lower[idx]]
+                if len(idx):
+                    lab, up, lo = self._full(idx, nodes)
+                    self.labels = self.labels.copy()
+                    self.labels[idx], self.upper[idx], self.lower[idx] = lab, up, lo
+        self.nodes = nodes.copy()
+        return self.labels
+
+
+def arc_length_resample(path: Array, n: int) -> Array:
+    """``n`` points equally spaced in arc length along ``path (T, d)``; by index when it has no length."""
+    seg = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    if s[-1] <= 0:
+        s = np.arange(len(path), dtype=float)
+    keep = np.concatenate([[True], np.diff(s) > 0])
+    s, p = s[keep], path[keep]
+    target = np.linspace(0.0, s[-1], n)
+    return np.stack([np.interp(target, s, p[:, q]) for q in range(path.shape[1])], axis=1)
+
+
+# ----------------------------------------------------------------------------------------------
+# input checks
+
+
+def _as_demo_list(value: object, name: str) -> list[Array]:
+    if isinstance(value, np.ndarray):
+        items = [value]
+    elif isinstance(value, (list, tuple)) and len(value) and all(isinstance(v, np.ndarray) for v in value):
+        items = list(value)
+    else:
+        try:
+            items = [np.asarray(value, dtype=float)]
+        except (TypeError, ValueError):
+            raise ValueError(f"{name}: expected a (T, d) array or a list of them") from None
+    out = []
+    for k, a in enumerate(items):
+        try:
+            a = np.asarray(a, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name}[{k}]: not a numeric array") from None
+        if a.ndim == 1:
+            a = a[:, None]
+        if a.ndim != 2:
+            raise ValueError(f"{name}[{k}]: expected shape (T, d), got {a.shape}")
+        out.append(a)
+    return out
+
+
+def _check_finite(arrays: Sequence[Array], name: str) -> None:
+    for k, a in enumerate(arrays):
+        bad = ~np.isfinite(a)
+        if bad.any():
+            t, q = np.argwhere(bad)[0] if a.ndim == 2 else (np.argwhere(bad)[0][0], 0)
+            raise ValueError(f"{name}[{k}]: non-finite value {a[t, q] if a.ndim == 2 else a[t]} at frame {t}, axis {q}")
+
+
+def _check_scalar(name: str, value: float, *, low: float = 0.0, strict: bool = False) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a number, got {value!r}") from None
+    if not np.isfinite(v) or (v <= low if strict else v < low):
+        raise ValueError(f"{name}: must be {'>' if strict else '>='} {low} and finite, got {value!r}")
+    return v
+
+
+# ----------------------------------------------------------------------------------------------
+
+
+def fit_force_elastic_map(
+    positions: ArrayLike | Sequence[ArrayLike],
+    forces: ArrayLike | Sequence[ArrayLike] | None = None,
+    *,
+    n_nodes: int = 100,
+    lam: float = DEFAULT_LAMBDA,
+    mu: float = DEFAULT_MU,
+    delta: float = DEFAULT_DELTA,
+    f_contact: float = DEFAULT_F_CONTACT,
+    stiffness: float = DEFAULT_STIFFNESS,
+    rho_max: float | None = 0.75,
+    force_limit: float | None = None,
+    constraints: Constraints | None = None,
+    max_iter: int = 100,
+    tol: float = 1e-9,
+    xtol: float = 1e-9,
+    times: ArrayLike | Sequence[ArrayLike] | None = None,
+    orientations: ArrayLike | Sequence[ArrayLike] | None = None,
+    weights: ArrayLike | Sequence[ArrayLike] | None = None,
+    spring_relaxation: float | str = "auto",
+    solver: str = "auto",
+) -> ElasticMapFit:
+    """Fit a force-constrained elastic map to one or more demos of one segment.
+
+    positions: (T, d) array or a list of them (several demos, same d; d = 1 for a gripper map).
+    forces: same shapes or None — the reaction force on the robot on the same axes (points away from
+        the contact surface), tared and low-passed; ``None``, ``delta=0`` or zero forces give the
+        plain elastic map.
+    n_nodes (N >= 3); lam, mu >= 0 stretching / bending; delta (m) force-point offset; f_contact (N);
+    stiffness k (N/m); rho_max in (0, 1) caps r = Σ|w_force|/Σw_demo per node and axis (None: off);
+    force_limit (N): half-space constraints keeping nodes of samples above it at least
+    (|f| − force_limit)/k behind the demonstrated contact along the force direction (Clarabel).
+    times: per-demo timestamps (T,), default uniform; orientations: per-demo (T, 4) w-first quaternions;
+    weights: per-sample demo weights (T,) or (T, d), positive. solver: "auto", "banded", "clarabel".
+    """
+    # ---- validate
+    demos = _as_demo_list(positions, "positions")
+    _check_finite(demos, "positions")
+    dim = demos[0].shape[1]
+    for k, a in enumerate(demos):
+        if a.shape[1] != dim:
+            raise ValueError(f"positions[{k}]: dimension {a.shape[1]} differs from positions[0]'s {dim}")
+        if a.shape[0] < 2:
+            raise ValueError(f"positions[{k}]: need at least 2 samples, got {a.shape[0]}")
+    if isinstance(n_nodes, bool) or not isinstance(n_nodes, (int, np.integer)) or n_nodes < 3:
+        raise ValueError(f"n_nodes: need an integer >= 3, got {n_nodes!r}")
+    n_nodes = int(n_nodes)
+    lam = _check_scalar("lam", lam)
+    mu = _check_scalar("mu", mu)
+    delta = _check_scalar("delta", delta)
+    f_contact = _check_scalar("f_contact", f_contact)
+    stiffness = _check_scalar("stiffness", stiffness, strict=True)
+    if rho_max is not None:
+        rho_max = _check_scalar("rho_max", rho_max, strict=True)
+        if rho_max >= 1.0:
+            raise ValueError(f"rho_max: must be in (0, 1), got {rho_max}")
+    if force_limit is not None:
+        force_limit = _check_scalar("force_limit", force_limit, strict=True)
+    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
+        raise ValueError(f"max_iter: need an integer >= 1, got {max_iter!r}")
+    tol = _check_scalar("tol", tol)
+    xtol = _check_scalar("xtol", xtol)
+    if spring_relaxation != "auto":
+        spring_relaxation = _check_scalar("spring_relaxation", spring_relaxation, strict=True)
+        if spring_relaxation > 1.0:
+            raise ValueError(f"spring_relaxation: must be 'auto' or in (0, 1], got {spring_relaxation}")
+    if solver not in ("auto", "banded", "clarabel"):
+        raise ValueError(f"solver: expected 'auto', 'banded' or 'clarabel', got {solver!r}")
+
+    lengths = [len(a) for a in demos]
+
+    def matching(value: object, name: str, width: int | None) -> list[Array]:
+        arrs = _as_demo_list(value, name)
+        if len(arrs) != len(demos):
+            raise ValueError(f"{name}: {len(arrs)} demos given for {len(demos)} demos of positions")
+        for k, a in enumerate(arrs):
+            want = (lengths[k], width if width is not None else a.shape[1])
+            if a.shape != want:
+                raise ValueError(f"{name}[{k}]: shape {a.shape} does not match positions[{k}] (expected {want})")
+        _check_finite(arrs, name)
+        return arrs
+
+    force_list = matching(forces, "forces", dim) if forces is not None else None
+    if weights is not None:
+        wl = _as_demo_list(weights, "weights")
+        wl = [np.repeat(a, dim, axis=1) if a.shape[1] == 1 and dim > 1 else a for a in wl]
+        weight_list = matching(wl, "weights", dim)
+        for k, a in enumerate(weight_list):
+            if np.any(a <= 0):
+                t, q = np.argwhere(a <= 0)[0]
+                raise ValueError(f"weights[{k}]: weights must be > 0, got {a[t, q]} at frame {t}, axis {q}")
+    else:
+        weight_list = [np.ones((n, dim)) for n in lengths]
+    if times is not None:
+        time_list = [a[:, 0] for a in matching(times, "times", 1)]
+        for k, t in enumerate(time_list):
+            back = np.flatnonzero(np.diff(t) < 0)
+            if len(back):
+                raise ValueError(f"times[{k}]: decreasing at frame {back[0] + 1} ({t[back[0]]} -> {t[back[0] + 1]})")
+            if t[-1] <= t[0]:
+                raise ValueError(f"times[{k}]: the demo has zero duration")
+    else:
+        time_list = [np.arange(n, dtype=float) for n in lengths]
+    quat_list = None
+    if orientations is not None:
+        quat_list = matching(orientations, "orientations", 4)
+        for k, q in enumerate(quat_list):
+            norms = np.linalg.norm(q, axis=1)
+            if np.any(norms < 1e-9):
+                raise ValueError(f"orientations[{k}]: zero quaternion at frame {int(np.argmax(norms < 1e-9))}")
+
+    # ---- stack the data
+    x = np.concatenate(demos, axis=0)
+    w = np.concatenate(weight_list, axis=0)
+    f = np.concatenate(force_list, axis=0) if force_list is not None else None
+    norm_times = [(t - t[0]) / (t[-1] - t[0]) for t in time_list]
+    u = np.concatenate(norm_times)
+    duration = float(np.mean([t[-1] - t[0] for t in time_list])) if times is not None else float(np.mean(lengths) - 1)
+    S = float(np.sum(np.linalg.norm(w, axis=1)))
+    scale = max(float(np.max(np.ptp(x, axis=0))), 1e-12)
+
+    # ---- initial map and constraints
+    first = demos[0]
+    y = arc_length_resample(first, n_nodes)
+    seg = np.linalg.norm(np.diff(first, axis=0), axis=1)
+    arc = np.concatenate([[0.0], np.cumsum(seg)])
+    arc = arc / arc[-1] if arc[-1] > 0 else np.linspace(0.0, 1.0, len(first))
+
+    def time_fraction_to_node(frac: float) -> int:
+        j = min(int(np.searchsorted(norm_times[0], frac, side="left")), len(first) - 1)
+        return int(round(arc[j] * (n_nodes - 1)))
+
+    rc: ResolvedConstraints = resolve_constraints(constraints, n_nodes, dim, time_fraction_to_node)
+    if len(rc.fixed_index):
+        y[rc.fixed_index] = rc.fixed_value
+    use_clarabel = solver == "clarabel" or rc.has_inequalities or force_limit is not None
+    if solver == "banded" and use_clarabel:
+        raise ValueError("solver: 'banded' cannot handle inequality constraints or force_limit; use 'auto' or 'clarabel'")
+
+    fp: ForcePoints | None = None
+    if f is not None:
+        fp = make_force_points(x, f, delta, f_contact)
+        if len(fp) == 0:
+            fp = None
+        elif spring_relaxation == "auto":
+            omega = 1.0 / (1.0 + fp.norm / (stiffness * max(delta, 1e-300)))
+        else:
+            omega = np.full(len(fp), spring_relaxation)
+    limit_src = None
+    if f is not None and force_limit is not None:
+        fn = np.linalg.norm(f, axis=1)
+        limit_src = np.flatnonzero(fn > force_limit)
+        limit_normal = f[limit_src] / fn[limit_src, None]
+        limit_lower = np.einsum("ij,ij->i", limit_normal, x[limit_src]) + (fn[limit_src] - force_limit) / stiffness
+
+    # ---- EM
+    labels_hist: list[NDArray[np.intp]] = []
+    nodes_hist: list[Array] = []
+    history: list[float] = []
+    spring = None
+    spring_moved = 0.0
+    reason = "max_iter"
+    capped = np.zeros((n_nodes, dim), dtype=bool)
+    n_rows = 0
+    energy = energy_terms(y, np.zeros_like(y), np.zeros_like(y), S, lam, mu)
+    it = 0
+    assigner = NearestNodeAssigner(x)
+    unit_weights = weights is None
+    banded = None if use_clarabel else BandedMStep(n_nodes, dim, lam, mu, rc.fixed_index, rc.fixed_value)
+    for it in range(1, max_iter + 1):
+        labels = assigner(y)
+        if not labels_hist or not np.array_equal(labels, labels_hist[-1]):
+            W_demo, b_demo = cluster_sums(labels, None if unit_weights else w, x, n_nodes)
+        W, b = W_demo, b_demo
+        if fp is not None:
+            tied = labels[fp.source]
+            target = np.maximum(row_norms(fp.points - y[tied]), delta)
+            new_spring = target if spring is None else (1.0 - omega) * spring + omega * target
+            spring_moved = 0.0 if spring is None else float(np.max(np.abs(new_spring - spring)))
+            spring = new_spring
+            fw = force_point_weights(
+                fp, tied, y, W_demo, delta=delta, stiffness=stiffness, rho_max=rho_max, spring_length=spring
+            )
+            capped = fw.capped
+            Wf, bf = cluster_sums(tied, fw.weights, fp.points, n_nodes)
+            W = W + Wf
+            b = b + bf
+        extra = None
+        if limit_src is not None and len(limit_src):
+            extra = InequalityRows(labels[limit_src], limit_normal, limit_lower)
+            n_rows = len(extra)
+        if use_clarabel:
+            y_new = solve_m_step_clarabel(W, b, S, lam, mu, rc, extra)
+        else:
+            y_new = banded.solve(W, b, S, previous=y)
+        energy = energy_terms(y_new, W, b, S, lam, mu)
+        history.append(energy.total)
+        moved = float(np.max(np.abs(y_new - y)))
+        y = y_new
+        same = len(labels_hist) >= 1 and np.array_equal(labels, labels_hist[-1])  # cheap: M ints
+        if same and max(moved, spring_moved) <= xtol * scale:
+            reason = "converged"
+            break
+        # The energy test is the fallback for assignments that keep changing; with an unchanged
+        # assignment only the spring lengths still move, and that iteration contracts to xtol.
+        if not same and len(history) >= 2 and abs(history[-1] - history[-2]) <= tol * max(abs(history[-2]), 1e-300):
+            reason = "energy_tol"
+            break
+        # a 2-cycle: the assignment and the nodes return to where they were two iterations ago
+        if (
+            len(labels_hist) >= 2
+            and not same
+            and np.array_equal(labels, labels_hist[-2])
+            and float(np.max(np.abs(y - nodes_hist[-2]))) <= 1e-6 * scale
+        ):
+            reason = "cycle"
+            break
+        labels_hist = [*labels_hist[-1:], labels]
+        nodes_hist = [*nodes_hist[-1:], y]
+
+    labels = assign_nearest(x, y)
+    node_t = node_time_law(labels, u, n_nodes, duration)
+    quats = None
+    if quat_list is not None:
+        quats = node_orientations(node_t, norm_times, quat_list, duration)
+    return ElasticMapFit(
+        nodes=y,
+        node_times=node_t,
+        n_iter=it,
+        stop_reason=reason,
+        energy=energy,
+        capped_nodes=np.argwhere(capped),
+        orientations=quats,
+        labels=labels,
+        duration=duration,
+        n_force_points=0 if fp is None else len(fp),
+        n_force_limit_rows=n_rows,
+        solver="clarabel" if use_clarabel else "banded",
+        energy_history=tuple(history),
+    )

@@ -1,0 +1,331 @@
+"""M-step solvers for the convex elastic-map energy (SPEC §1 "Energy").
+
+Per axis q the energy decouples into
+
+    (1/S) Σ_i (W_iq y_iq − b_iq)² + λ Σ_i (y_{i+1,q} − y_iq)² + μ Σ_i (y_iq − 2y_{i+1,q} + y_{i+2,q})²
+
+whose normal equations ``(diag(W_q)²/S + λEᵀE + μRᵀR) y_q = diag(W_q) b_q / S`` are pentadiagonal and
+SPD. The d systems are stacked into one block-diagonal matrix of size N·d — still bandwidth 2 because
+the blocks do not touch — and solved with a single banded Cholesky call (LAPACK ``pbsv``): O(N·d).
+Fixed nodes (equality constraints) are eliminated, which keeps the band. Inequality constraints go to
+Clarabel with the same objective (sparse P and A).
+
+Layout: nodes ``y (N, d)``; cluster sums ``W, b (N, d)``; the stacked vector is axis-major,
+``γ = [y[:, 0]; y[:, 1]; ...]`` (the paper's stacking), entry (i, q) at ``q·N + i``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import clarabel
+import numpy as np
+import scipy.linalg
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from .constraints import ResolvedConstraints
+
+__all__ = [
+    "EnergyTerms",
+    "InequalityRows",
+    "smoothness_bands",
+    "energy_terms",
+    "BandedMStep",
+    "solve_m_step_banded",
+    "solve_m_step_clarabel",
+]
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class EnergyTerms:
+    """The three terms of the convex energy at a node placement."""
+
+    approximation: float
+    stretching: float
+    bending: float
+
+    @property
+    def total(self) -> float:
+        return self.approximation + self.stretching + self.bending
+
+
+@dataclass(frozen=True)
+class InequalityRows:
+    """Extra half-spaces tied to single nodes: ``normals[k] · y[node[k]] >= lower[k]``.
+
+    Used for the force-limit constraints, which are rebuilt every EM iteration from the assignment.
+    node (K,), normals (K, d), lower (K,).
+    """
+
+    node: NDArray[np.intp]
+    normals: Array
+    lower: Array
+
+    def __len__(self) -> int:
+        return len(self.node)
+
+
+def smoothness_bands(n_nodes: int, lam: float, mu: float) -> tuple[Array, Array, Array]:
+    """Bands of ``λEᵀE + μRᵀR`` (N×N, symmetric): main diagonal (N,), first (N−1,) and second (N−2,) off-diagonals."""
+    n = n_nodes
+    d0 = np.zeros(n)
+    d1 = np.zeros(max(n - 1, 0))
+    d2 = np.zeros(max(n - 2, 0))
+    if n >= 2 and lam:
+        # E rows (-1, 1) on (i, i+1)
+        d0[:-1] += lam
+        d0[1:] += lam
+        d1 -= lam
+    if n >= 3 and mu:
+        # R rows (1, -2, 1) on (r, r+1, r+2)
+        d0[:-2] += mu
+        d0[1:-1] += 4 * mu
+        d0[2:] += mu
+        d1[:-1] -= 2 * mu
+        d1[1:] -= 2 * mu
+        d2 += mu
+    return d0, d1, d2
+
+
+def energy_terms(y: Array, W: Array, b: Array, S: float, lam: float, mu: float) -> EnergyTerms:
+    """Energy of nodes ``y (N, d)`` for cluster sums ``W, b (N, d)`` and normaliser ``S``."""
+    approx = float(np.sum((W * y - b) ** 2) / S)
+    stretch = float(lam * np.sum(np.diff(y, axis=0) ** 2)) if lam else 0.0
+    bend = float(mu * np.sum(np.diff(y, n=2, axis=0) ** 2)) if mu else 0.0
+    return EnergyTerms(approx, stretch, bend)
+
+
+def _banded_matvec(d0: Array, d1: Array, d2: Array, y: Array) -> Array:
+    """``A @ y`` for the symmetric pentadiagonal A given by its bands; d0 (N, d) per axis, d1/d2 shared."""
+    out = d0 * y
+    if len(d1):
+        out[:-1] += d1[:, None] * y[1:]
+        out[1:] += d1[:, None] * y[:-1]
+    if len(d2):
+        out[:-2] += d2[:, None] * y[2:]
+        out[2:] += d2[:, None] * y[:-2]
+    return out
+
+
+class BandedMStep:
+    """The banded M-step for fixed (N, d, λ, μ, fixed nodes): everything that does not change between
+    EM iterations is computed once here; :meth:`solve` then costs one ``pbsv`` call.
+
+    Fixed nodes are eliminated: the reduced matrix ``A_FF`` keeps bandwidth 2 because neighbours in
+    the free set F are 1 or 2 apart in the full index (or further, then uncoupled).
+    """
+
+    def __init__(
+        self,
+        n_nodes: int,
+        dim: int,
+        lam: float,
+        mu: float,
+        fixed_index: NDArray[np.intp] | None = None,
+        fixed_value: Array | None = None,
+    ) -> None:
+        n = n_nodes
+        self.n, self.d = n, dim
+        self.s0, self.s1, self.s2 = smoothness_bands(n, lam, mu)
+        self.free = np.ones(n, dtype=bool)
+        self.y_fixed = None
+        if fixed_index is not None and len(fixed_index):
+            self.free[fixed_index] = False
+            self.fixed_index = np.asarray(fixed_index)
+            self.fixed_value = np.asarray(fixed_value, dtype=float)
+            y_fixed = np.zeros((n, dim))
+            y_fixed[fixed_index] = fixed_value
+            self.y_fixed = y_fixed
+        F = np.flatnonzero(self.free)
+        self.F = F
+        nf = len(F)
+        sub1 = np.zeros(max(nf - 1, 0))
+        if nf >= 2:
+            gap1 = np.diff(F)
+            if n >= 2:
+                sub1 = np.where(gap1 == 1, self.s1[np.minimum(F[:-1], n - 2)], 0.0)
+            if n >= 3:
+                sub1 = np.where(gap1 == 2, self.s2[np.minimum(F[:-1], n - 3)], sub1)
+        sub2 = np.zeros(max(nf - 2, 0))
+        if nf >= 3 and n >= 3:
+            sub2 = np.where(F[2:] - F[:-2] == 2, self.s2[np.minimum(F[:-2], n - 3)], 0.0)
+        # off-diagonal rows of the stacked (nf·d) lower-banded matrix; zero where axis blocks meet
+        self.ab = np.zeros((3, nf * dim))
+        if nf >= 2:
+            blk = np.zeros((dim, nf))
+            blk[:, :-1] = sub1
+            self.ab[1] = blk.reshape(-1)
+        if nf >= 3:
+            blk = np.zeros((dim, nf))
+            blk[:, :-2] = sub2
+            self.ab[2] = blk.reshape(-1)
+        # A_F,fixed · y_fixed only involves the smoothness bands (diag(W)² is diagonal)
+        if self.y_fixed is not None:
+            self.fixed_rhs = _banded_matvec(np.zeros((n, dim)), self.s1, self.s2, self.y_fixed)[F]
+        else:
+            self.fixed_rhs = None
+
+    def solve(self, W: Array, b: Array, S: float, previous: Array | None = None) -> Array:
+        """Nodes (N, d) minimising the energy for cluster sums W, b (N, d) and normaliser S.
+
+        ``previous (N, d)`` holds nodes whose row is undetermined (an empty cluster with λ = μ = 0,
+        or a singular system): they stay where they were.
+        """
+        n, d, F = self.n, self.d, self.F
+        y = np.zeros((n, d)) if previous is None else np.array(previous, dtype=float, copy=True)
+        if self.y_fixed is not None:
+            y[self.fixed_index] = self.fixed_value
+        nf = len(F)
+        if nf == 0:
+            return y
+        Wf = W[F]
+        diag_f = Wf * Wf / S + self.s0[F, None]
+        rhs_f = Wf * b[F] / S
+        if self.fixed_rhs is not None:
+            rhs_f = rhs_f - self.fixed_rhs
+        # Rows no energy term touches (only when λ = μ = 0, so they couple to nothing): keep the
+        # previous node.
+        dead = diag_f <= 0.0
+        if dead.any():
+            diag_f = np.where(dead, 1.0, diag_f)
+            rhs_f = np.where(dead, y[F], rhs_f)
+        ab = self.ab.copy()
+        ab[0] = diag_f.T.reshape(-1)
+        rhs_flat = rhs_f.T.reshape(-1)
+        try:
+            sol = scipy.linalg.solveh_banded(ab, rhs_flat, lower=True, check_finite=False)
+        except np.linalg.LinAlgError:
+            # Semi-definite (e.g. λ = 0 and a single non-empty cluster): a tiny ridge towards the
+            # previous nodes picks the solution nearest to them.
+            ridge = 1e-10 * max(float(np.max(ab[0])), 1e-300)
+            ab[0] += ridge
+            sol = scipy.linalg.solveh_banded(ab, rhs_flat + ridge * y[F].T.reshape(-1), lower=True, check_finite=False)
+        y[F] = sol.reshape(d, nf).T
+        return y
+
+
+def solve_m_step_banded(
+    W: Array,
+    b: Array,
+    S: float,
+    lam: float,
+    mu: float,
+    fixed_index: NDArray[np.intp] | None = None,
+    fixed_value: Array | None = None,
+    previous: Array | None = None,
+) -> Array:
+    """One banded M-step (see :class:`BandedMStep`): W, b (N, d) cluster sums -> nodes y (N, d)."""
+    n, d = W.shape
+    return BandedMStep(n, d, lam, mu, fixed_index, fixed_value).solve(W, b, S, previous)
+
+
+def _clarabel_settings(tol: float) -> clarabel.DefaultSettings:
+    s = clarabel.DefaultSettings()
+    s.verbose = False
+    s.tol_gap_abs = tol
+    s.tol_gap_rel = tol
+    s.tol_feas = tol
+    s.tol_ktratio = 1e-8
+    s.max_iter = 200
+    return s
+
+
+def solve_m_step_clarabel(
+    W: Array,
+    b: Array,
+    S: float,
+    lam: float,
+    mu: float,
+    constraints: ResolvedConstraints,
+    extra: InequalityRows | None = None,
+    tol: float = 1e-10,
+) -> Array:
+    """Same objective as :func:`solve_m_step_banded`, with every constraint as a conic row (Clarabel).
+
+    Raises ``ValueError`` naming ``constraints`` when the set is infeasible.
+    """
+    n, d = W.shape
+    nv = n * d
+    s0, s1, s2 = smoothness_bands(n, lam, mu)
+    diag = (W * W / S + s0[:, None]).T.reshape(-1)
+    off1 = np.zeros((d, n))
+    off1[:, :-1] = s1
+    off2 = np.zeros((d, n))
+    if n >= 3:
+        off2[:, :-2] = s2
+    # Clarabel minimises ½ γᵀPγ + qᵀγ: P = 2·A (upper triangle), q = −2·W b / S.
+    P = sp.diags(
+        [2 * diag, 2 * off1.reshape(-1)[:-1], 2 * off2.reshape(-1)[:-2]], [0, 1, 2], shape=(nv, nv), format="csc"
+    )
+    q = -2.0 * (W * b / S).T.reshape(-1)
+
+    rows: list[sp.spmatrix] = []
+    rhs: list[Array] = []
+    cones: list = []
+    node = np.arange(n)
+
+    # equalities
+    k_eq = len(constraints.fixed_index)
+    if k_eq:
+        cols = (np.arange(d)[None, :] * n + constraints.fixed_index[:, None]).reshape(-1)
+        rows.append(sp.csc_matrix((np.ones(len(cols)), (np.arange(len(cols)), cols)), shape=(len(cols), nv)))
+        rhs.append(constraints.fixed_value.reshape(-1))
+        cones.append(clarabel.ZeroConeT(len(cols)))
+
+    # linear inequalities A γ + s = b, s >= 0
+    n_ineq = 0
+    if constraints.box_lo is not None:
+        for sign, bound in ((1.0, constraints.box_hi), (-1.0, constraints.box_lo)):
+            for qa in range(d):
+                if np.isfinite(bound[qa]):
+                    rows.append(sp.csc_matrix((np.full(n, sign), (node, qa * n + node)), shape=(n, nv)))
+                    rhs.append(np.full(n, sign * bound[qa]))
+                    n_ineq += n
+    for normal, offset in zip(constraints.halfspace_normals, constraints.halfspace_offsets, strict=True):
+        r = np.repeat(node, d)
+        c = (np.arange(d)[None, :] * n + node[:, None]).reshape(-1)
+        rows.append(sp.csc_matrix((np.tile(normal, n), (r, c)), shape=(n, nv)))
+        rhs.append(np.full(n, offset))
+        n_ineq += n
+    if extra is not None and len(extra):
+        k = len(extra)
+        r = np.repeat(np.arange(k), d)
+        c = (np.arange(d)[None, :] * n + extra.node[:, None]).reshape(-1)
+        rows.append(sp.csc_matrix((-extra.normals.reshape(-1), (r, c)), shape=(k, nv)))
+        rhs.append(-extra.lower)
+        n_ineq += k
+    if n_ineq:
+        cones.append(clarabel.NonnegativeConeT(n_ineq))
+
+    # step-length bound: (max_step, y_{i+1} − y_i) in the second-order cone, per edge
+    if constraints.max_step is not None and n >= 2:
+        ne = n - 1
+        edge = np.arange(ne)
+        r_base = edge * (d + 1)
+        r = np.concatenate([(r_base[:, None] + 1 + np.arange(d)[None, :]).reshape(-1)] * 2)
+        c_lo = (np.arange(d)[None, :] * n + edge[:, None]).reshape(-1)
+        c = np.concatenate([c_lo, c_lo + 1])
+        vals = np.concatenate([np.ones(len(c_lo)), -np.ones(len(c_lo))])
+        rows.append(sp.csc_matrix((vals, (r, c)), shape=(ne * (d + 1), nv)))
+        b_soc = np.zeros(ne * (d + 1))
+        b_soc[r_base] = constraints.max_step
+        rhs.append(b_soc)
+        cones.extend(clarabel.SecondOrderConeT(d + 1) for _ in range(ne))
+
+    if rows:
+        A = sp.vstack(rows, format="csc")
+        bvec = np.concatenate(rhs)
+    else:
+        A = sp.csc_matrix((0, nv))
+        bvec = np.zeros(0)
+    solver = clarabel.DefaultSolver(P, q, A, bvec, cones, _clarabel_settings(tol))
+    sol = solver.solve()
+    status = sol.status
+    if status in (clarabel.SolverStatus.PrimalInfeasible, clarabel.SolverStatus.AlmostPrimalInfeasible):
+        raise ValueError(f"constraints: the constraint set is infeasible (Clarabel status {status})")
+    if status not in (clarabel.SolverStatus.Solved, clarabel.SolverStatus.AlmostSolved):
+        raise RuntimeError(f"Clarabel M-step failed with status {status}")
+    return np.asarray(sol.x).reshape(d, n).T.copy()

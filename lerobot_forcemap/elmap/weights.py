@@ -1,0 +1,137 @@
+"""Force points and their per-axis weights (SPEC §1 "Force points", "Well-posedness").
+
+For every sample whose force norm exceeds ``f_contact`` a force point ``p_j = x_j − δ·f̂_j`` is
+added just behind the contact surface (forces are the reaction on the robot, pointing away from
+the surface). Its per-axis weight is
+
+    w_jq = −|f_jq| / (k · Δ_j),      Δ_j = max(‖p_j − y_a(j)‖, δ),
+
+recomputed every EM iteration from the node ``y_a(j)`` the source sample is assigned to. The
+negative weight pushes that node away from the surface. With ``k`` (stiffness, N/m) the push is
+Hooke's law: for a cluster of contact samples all pressing with force F along one axis the fixed
+point of this update lifts the node by exactly ``F / k`` (as long as the cap below does not bind).
+
+Well-posedness: ignoring smoothness a node sits at ``x̄ + r/(1−r)·(x̄ − p̄)`` with
+``r = Σ|w_force| / Σ w_demo`` over its cluster — unbounded as r → 1 and pulled *into* the surface for
+r > 1. We cap r at ``rho_max`` per node and axis by scaling that node's force weights, and report it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["ForcePoints", "ForceWeights", "make_force_points", "force_point_weights", "cluster_sums", "row_norms"]
+
+Array = NDArray[np.float64]
+
+
+def row_norms(a: Array) -> Array:
+    """Euclidean norm of every row of ``a (M, d)``; faster than ``np.linalg.norm(a, axis=1)`` for small d."""
+    return np.sqrt(np.einsum("ij,ij->i", a, a))
+
+
+@dataclass(frozen=True)
+class ForcePoints:
+    """Force points of the stacked demo samples.
+
+    source (K,) index of the source sample in the stacked data; points (K, d) = x − δ·f̂;
+    magnitude (K, d) = |f| per axis; direction (K, d) = f̂; norm (K,) = ‖f‖.
+    """
+
+    source: NDArray[np.intp]
+    points: Array
+    magnitude: Array
+    direction: Array
+    norm: Array
+
+    def __len__(self) -> int:
+        return len(self.source)
+
+
+@dataclass(frozen=True)
+class ForceWeights:
+    """Per-iteration force-point weights: weights (K, d) (<= 0); capped (N, d) mask of capped node axes;
+    ratio (N, d) = r before capping (0 where a node has no force point)."""
+
+    weights: Array
+    capped: NDArray[np.bool_]
+    ratio: Array
+
+
+def make_force_points(x: Array, f: Array, delta: float, f_contact: float) -> ForcePoints:
+    """Force points for samples ``x, f (M, d)`` with ``‖f‖ > f_contact``; none when ``delta == 0``."""
+    d = x.shape[1]
+    norm = np.linalg.norm(f, axis=1)
+    if delta == 0.0:
+        sel = np.zeros(len(x), dtype=bool)
+    else:
+        sel = norm > max(f_contact, 0.0)
+        sel &= norm > 0.0
+    src = np.flatnonzero(sel)
+    direction = f[src] / norm[src, None] if len(src) else np.zeros((0, d))
+    return ForcePoints(
+        source=src,
+        points=x[src] - delta * direction,
+        magnitude=np.abs(f[src]),
+        direction=direction,
+        norm=norm[src],
+    )
+
+
+def cluster_sums(
+    labels: NDArray[np.intp], w: Array | None, values: Array, n_nodes: int
+) -> tuple[Array, Array]:
+    """``W_i = Σ_{j∈κ_i} w_j`` and ``b_i = Σ_{j∈κ_i} w_j ⊙ ζ_j`` (each (N, d)); ``w=None`` means unit weights.
+
+    One ``bincount`` per axis (d is small; the samples are never looped over in Python).
+    """
+    d = values.shape[1]
+    W = np.empty((n_nodes, d))
+    b = np.empty((n_nodes, d))
+    if w is None:
+        W[:] = np.bincount(labels, minlength=n_nodes)[:, None]
+        for q in range(d):
+            b[:, q] = np.bincount(labels, weights=values[:, q], minlength=n_nodes)
+    else:
+        wv = w * values
+        for q in range(d):
+            W[:, q] = np.bincount(labels, weights=w[:, q], minlength=n_nodes)
+            b[:, q] = np.bincount(labels, weights=wv[:, q], minlength=n_nodes)
+    return W, b
+
+
+def force_point_weights(
+    fp: ForcePoints,
+    tied_node: NDArray[np.intp],
+    nodes: Array,
+    demo_weight_sum: Array,
+    *,
+    delta: float,
+    stiffness: float,
+    rho_max: float | None,
+    spring_length: Array | None = None,
+) -> ForceWeights:
+    """Weights of the force points for the current nodes.
+
+    tied_node (K,): node of each force point (its source sample's cluster); nodes (N, d);
+    demo_weight_sum (N, d): Σ w_demo per node and axis. ``rho_max=None`` disables the cap (ablation).
+    spring_length (K,): Δ_j when the caller relaxes it; default ``max(‖p_j − y_a(j)‖, δ)``.
+    """
+    n, d = nodes.shape
+    if spring_length is None:
+        spring = np.maximum(row_norms(fp.points - nodes[tied_node]), delta)
+    else:
+        spring = np.maximum(spring_length, delta)
+    w = -fp.magnitude / (stiffness * spring[:, None])
+    push = np.stack([np.bincount(tied_node, weights=-w[:, q], minlength=n) for q in range(d)], axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(push > 0, push / demo_weight_sum, 0.0)
+    ratio = np.where(np.isfinite(ratio), ratio, np.inf)
+    if rho_max is None:
+        return ForceWeights(w, np.zeros((n, d), dtype=bool), ratio)
+    capped = ratio > rho_max
+    scale = np.where(capped, rho_max / np.where(capped, ratio, 1.0), 1.0)
+    return ForceWeights(w * scale[tied_node], capped, ratio)

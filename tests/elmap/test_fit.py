@@ -1,0 +1,281 @@
+"""EM fit: force neutrality, fixed point, constraints through the fit, lift monotonicity, bad input."""
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from lerobot_forcemap.elmap import (
+    Constraints,
+    assign_nearest,
+    cluster_sums,
+    fit_force_elastic_map,
+    force_point_weights,
+    make_force_points,
+    resolve_constraints,
+    solve_m_step_banded,
+    solve_m_step_clarabel,
+)
+from lerobot_forcemap.elmap.fit import NearestNodeAssigner
+
+from .helpers import line_demo, s_curve
+
+
+def contact_forces(x, lo, hi, magnitude, axis=2):
+    f = np.zeros_like(x)
+    f[lo:hi, axis] = magnitude
+    return f
+
+
+# ---- forces that must not change anything
+
+
+def test_zero_delta_or_zero_force_gives_the_plain_fit_exactly():
+    x = s_curve()
+    plain = fit_force_elastic_map(x, n_nodes=60)
+    f = contact_forces(x, 100, 400, 30.0)
+    np.testing.assert_array_equal(fit_force_elastic_map(x, f, n_nodes=60, delta=0.0).nodes, plain.nodes)
+    np.testing.assert_array_equal(fit_force_elastic_map(x, np.zeros_like(x), n_nodes=60).nodes, plain.nodes)
+    # and below the contact threshold forces are ignored as well
+    np.testing.assert_array_equal(fit_force_elastic_map(x, 0.5 * np.ones_like(x) / np.sqrt(3), n_nodes=60).nodes, plain.nodes)
+
+
+def test_zero_force_axis_is_unchanged_in_the_m_step():
+    """For a fixed assignment the axes decouple: forces on z only leave the x and y solutions as they were."""
+    x = s_curve()
+    rng = np.random.default_rng(0)
+    nodes = x[np.linspace(0, len(x) - 1, 50).astype(int)]
+    labels = assign_nearest(x, nodes)
+    f = contact_forces(x, 100, 400, 30.0) + np.c_[np.zeros((len(x), 2)), rng.normal(size=len(x))]
+    fp = make_force_points(x, f * np.array([0, 0, 1.0]), delta=0.01, f_contact=2.0)
+    Wd, bd = cluster_sums(labels, None, x, 50)
+    fw = force_point_weights(fp, labels[fp.source], nodes, Wd, delta=0.01, stiffness=15000.0, rho_max=0.75)
+    Wf, bf = cluster_sums(labels[fp.source], fw.weights, fp.points, 50)
+    S = len(x) * np.sqrt(3)
+    with_force = solve_m_step_banded(Wd + Wf, bd + bf, S, 0.01, 0.01)
+    without = solve_m_step_banded(Wd, bd, S, 0.01, 0.01)
+    np.testing.assert_array_equal(with_force[:, :2], without[:, :2])
+    assert np.max(np.abs(with_force[:, 2] - without[:, 2])) > 1e-4
+
+
+def test_uniform_contact_lifts_the_map_along_the_force_only():
+    """A wipe in steady contact along its whole length: every node lifts along the force by nearly F/k (a
+    little less, since samples spread along the stroke have springs longer than δ + lift), and the
+    force-free axes (x, y) are unchanged."""
+    x = line_demo(n=400, noise=0.0)
+    F, k = 30.0, 15000.0
+    plain = fit_force_elastic_map(x, n_nodes=40)
+    fit = fit_force_elastic_map(x, contact_forces(x, 0, len(x), F), n_nodes=40, stiffness=k)
+    assert fit.stop_reason == "converged"
+    np.testing.assert_allclose(fit.nodes[:, :2], plain.nodes[:, :2], atol=1e-9)
+    lift = fit.nodes[:, 2] - plain.nodes[:, 2]
+    assert np.all(lift > 0.95 * F / k) and np.all(lift <= F / k + 1e-12)
+
+
+# ---- the fixed point
+
+
+@pytest.mark.parametrize("with_force", [False, True])
+def test_returned_nodes_are_a_fixed_point_of_em(with_force):
+    x = s_curve(n=800, seed=1)
+    f = contact_forces(x, 200, 600, 25.0) if with_force else None
+    kw = dict(n_nodes=50, lam=0.01, mu=0.01, delta=0.01, stiffness=5000.0, f_contact=2.0)
+    fit = fit_force_elastic_map(x, f, **kw)
+    assert fit.stop_reason == "converged", fit.stop_reason
+    labels = assign_nearest(x, fit.nodes)
+    np.testing.assert_array_equal(labels, fit.labels)
+    W, b = cluster_sums(labels, None, x, 50)
+    if with_force:
+        fp = make_force_points(x, f, 0.01, 2.0)
+        fw = force_point_weights(fp, labels[fp.source], fit.nodes, W, delta=0.01, stiffness=5000.0, rho_max=0.75)
+        Wf, bf = cluster_sums(labels[fp.source], fw.weights, fp.points, 50)
+        W, b = W + Wf, b + bf
+    again = solve_m_step_banded(W, b, len(x) * np.sqrt(3), 0.01, 0.01)
+    np.testing.assert_allclose(again, fit.nodes, rtol=0, atol=1e-8)
+
+
+def test_bounded_assigner_matches_brute_force():
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(2000, 3))
+    y = rng.normal(size=(40, 3))
+    assigner = NearestNodeAssigner(x)
+    for k in range(25):
+        np.testing.assert_array_equal(assigner(y), assign_nearest(x, y))
+        y = y + rng.normal(scale=0.1 / (k + 1) ** 2, size=y.shape)
+
+
+# ---- constraints through the fit
+
+
+def test_banded_and_clarabel_agree_with_equality_constraints():
+    x = s_curve(n=500, seed=2)
+    f = contact_forces(x, 150, 350, 20.0)
+    cons = Constraints(start=[0.0, 0.01, 0.0], end=[0.31, 0.0, 0.03], via=[(0.5, [0.15, 0.0, 0.01]), (10, [0.03, 0.03, 0.0])])
+    kw = dict(n_nodes=40, constraints=cons, stiffness=5000.0)
+    banded = fit_force_elastic_map(x, f, solver="banded", **kw)
+    clar = fit_force_elastic_map(x, f, solver="clarabel", **kw)
+    assert banded.solver == "banded" and clar.solver == "clarabel"
+    np.testing.assert_allclose(clar.nodes, banded.nodes, atol=1e-6)
+    rc = resolve_constraints(cons, 40, 3, lambda frac: 20)  # only to read which nodes the ints/ends fix
+    for fit in (banded, clar):
+        np.testing.assert_allclose(fit.nodes[0], [0.0, 0.01, 0.0], atol=1e-9)
+        np.testing.assert_allclose(fit.nodes[-1], [0.31, 0.0, 0.03], atol=1e-9)
+        np.testing.assert_allclose(fit.nodes[10], [0.03, 0.03, 0.0], atol=1e-9)
+        # the time-fraction via point fixed some node to its value
+        assert np.min(np.abs(fit.nodes - [0.15, 0.0, 0.01]).max(axis=1)) < 1e-9
+    assert 0 in rc.fixed_index and 39 in rc.fixed_index
+
+
+def test_time_fraction_via_maps_to_the_node_at_that_arc_length():
+    # constant speed: time fraction = arc-length fraction
+    x = line_demo(n=300)
+    fit = fit_force_elastic_map(x, n_nodes=31, constraints=Constraints(via=[(0.5, [0.2, 0.05, 0.0])]))
+    np.testing.assert_allclose(fit.nodes[15], [0.2, 0.05, 0.0], atol=1e-12)
+
+
+def test_inequality_constraints_hold_through_the_fit():
+    x = s_curve(n=500, seed=4)
+    cons = Constraints(box=([-1, -0.03, -1], [1, 0.03, 1]), halfspaces=[([0, 0, 1.0], 0.015)], max_step=0.012)
+    fit = fit_force_elastic_map(x, n_nodes=40, constraints=cons)
+    y = fit.nodes
+    assert fit.solver == "clarabel"
+    assert np.all(np.abs(y[:, 1]) <= 0.03 + 1e-7)
+    assert np.all(y[:, 2] <= 0.015 + 1e-7)
+    assert np.all(np.linalg.norm(np.diff(y, axis=0), axis=1) <= 0.012 + 1e-7)
+    plain = fit_force_elastic_map(x, n_nodes=40)
+    assert np.max(np.abs(plain.nodes[:, 1])) > 0.03 + 1e-3  # the box binds
+
+
+def test_force_limit_keeps_nodes_behind_the_contact():
+    x = line_demo(n=400, noise=2e-4, seed=5)
+    f = contact_forces(x, 100, 300, 40.0)
+    k, limit = 5000.0, 10.0
+    fit = fit_force_elastic_map(x, f, n_nodes=40, stiffness=k, force_limit=limit)
+    assert fit.solver == "clarabel" and fit.n_force_limit_rows == 200
+    labels = fit.labels
+    need = x[100:300, 2] + (40.0 - limit) / k
+    assert np.all(fit.nodes[labels[100:300], 2] >= need - 1e-7)
+    weights_only = fit_force_elastic_map(x, f, n_nodes=40, stiffness=k)
+    assert np.min(weights_only.nodes[labels[100:300], 2] - need) < -1e-4  # the constraint binds
+
+
+def test_infeasible_constraints_raise_naming_constraints():
+    x = line_demo(n=100)
+    with pytest.raises(ValueError, match="constraints"):
+        fit_force_elastic_map(x, n_nodes=10, constraints=Constraints(start=[0, 0, 0], box=([0.1, -1, -1], [1, 1, 1])))
+    with pytest.raises(ValueError, match="constraints"):
+        fit_force_elastic_map(x, n_nodes=10, constraints=Constraints(halfspaces=[([1, 0, 0], -1.0), ([-1, 0, 0], -1.0)]))
+    with pytest.raises(ValueError, match="constraints"):
+        fit_force_elastic_map(x, n_nodes=10, constraints=Constraints(start=[0, 0, 0], via=[(0, [1, 0, 0])]))
+
+
+# ---- force size
+
+
+def test_larger_force_lifts_nodes_monotonically():
+    x = line_demo(n=600, noise=3e-4, seed=6)
+    lifts = []
+    for F in (0.0, 5.0, 10.0, 20.0, 40.0, 80.0):
+        fit = fit_force_elastic_map(x, contact_forces(x, 150, 450, F), n_nodes=60)
+        contact_nodes = np.unique(fit.labels[200:400])
+        lifts.append(float(np.mean(fit.nodes[contact_nodes, 2])))
+    assert np.all(np.diff(lifts) > 0), lifts
+    assert lifts[0] == pytest.approx(0.0, abs=2e-4)
+
+
+# ---- several demos, 1-D maps, time law
+
+
+def test_several_demos_and_a_gripper_map():
+    rng = np.random.default_rng(7)
+    base = s_curve(n=400, noise=0.0)
+    demos = [base + 1e-3 * rng.normal(size=base.shape) for _ in range(3)]
+    fit = fit_force_elastic_map(demos, n_nodes=40)
+    assert fit.labels.shape == (1200,)
+    # the map runs along the mean path (nodes may slide along it, so compare with the curve)
+    dense = s_curve(n=20000, noise=0.0)
+    gap = np.min(np.linalg.norm(fit.nodes[:, None, :] - dense[None, :, :], axis=2), axis=1)
+    assert np.max(gap) < 2e-3
+    # m identical demos scale W and b by m and S by m, i.e. the data term by m (SPEC: the squared
+    # cluster weight): exactly the map of one demo with λ/m and μ/m.
+    copies = fit_force_elastic_map([base] * 3, n_nodes=40)
+    one = fit_force_elastic_map(base, n_nodes=40, lam=0.01 / 3, mu=0.01 / 3)
+    np.testing.assert_allclose(copies.nodes, one.nodes, atol=1e-12)
+    assert np.max(np.abs(fit_force_elastic_map(base, n_nodes=40).nodes - one.nodes)) > 1e-4
+    # gripper: 1-D opening that closes, with finger force while closed
+    g = np.concatenate([np.zeros(100), np.linspace(0, 1, 50), np.ones(150)])
+    fg = np.where(g > 0.99, -15.0, 0.0)  # the object pushes the fingers open
+    grip = fit_force_elastic_map(g, fg, n_nodes=30, delta=0.05, stiffness=300.0)
+    plain = fit_force_elastic_map(g, n_nodes=30)
+    assert grip.nodes.shape == (30, 1)
+    assert grip.nodes.max() < plain.nodes.max() - 0.01  # squeezes less
+
+
+def test_time_law_and_orientation():
+    from lerobot_forcemap.geometry import quat_to_rotvec, rotvec_to_quat
+
+    t = np.linspace(0.0, 4.0, 401)
+    x = np.stack([np.sin(t), np.cos(t), 0.1 * t], axis=1)  # constant speed helix
+    q = rotvec_to_quat(np.stack([np.zeros_like(t), np.zeros_like(t), 0.3 * t], axis=1))
+    fit = fit_force_elastic_map(x, n_nodes=41, times=t, orientations=q, lam=1e-4, mu=1e-4)
+    assert np.all(np.diff(fit.node_times) >= 0)
+    assert fit.duration == pytest.approx(4.0)
+    np.testing.assert_allclose(fit.node_times, np.linspace(0, 4, 41), atol=0.06)
+    # orientation = the demo orientation at the node time
+    np.testing.assert_allclose(quat_to_rotvec(fit.orientations)[:, 2], 0.3 * fit.node_times, atol=1e-9)
+    np.testing.assert_allclose(fit.position_at([0.0])[0], fit.nodes[0])
+    np.testing.assert_allclose(fit.position_at([4.0])[0], fit.nodes[-1])
+    assert fit.orientation_at([1.0, 2.0]).shape == (2, 4)
+
+
+# ---- bad input
+
+
+@pytest.mark.parametrize(
+    "kwargs,field",
+    [
+        (dict(positions=np.array([[0.0, 0], [np.nan, 1], [2, 2]])), r"positions\[0\].*frame 1"),
+        (dict(positions=np.array([[0.0, 0], [1, np.inf], [2, 2]])), r"positions\[0\]"),
+        (dict(forces=np.zeros((5, 2))), "forces"),
+        (dict(forces=np.full((20, 3), np.nan)), r"forces\[0\]"),
+        (dict(n_nodes=2), "n_nodes"),
+        (dict(positions=np.zeros((1, 3))), "positions"),
+        (dict(lam=-0.1), "lam"),
+        (dict(mu=-1.0), "mu"),
+        (dict(delta=-0.01), "delta"),
+        (dict(stiffness=0.0), "stiffness"),
+        (dict(rho_max=1.5), "rho_max"),
+        (dict(times=np.arange(20.0)[::-1]), "times"),
+        (dict(solver="osqp"), "solver"),
+        (dict(positions=[np.zeros((5, 3)), np.zeros((5, 2))]), r"positions\[1\]"),
+    ],
+)
+def test_bad_input_names_the_argument(kwargs, field):
+    args = dict(positions=line_demo(n=20))
+    args.update(kwargs)
+    positions = args.pop("positions")
+    with pytest.raises(ValueError, match=field):
+        fit_force_elastic_map(positions, **args)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    seed=st.integers(0, 10_000),
+    t=st.integers(2, 80),
+    d=st.integers(1, 4),
+    n_nodes=st.integers(3, 30),
+    repeats=st.booleans(),
+    force_scale=st.sampled_from([0.0, 1.0, 50.0, 1e4]),
+    lam=st.sampled_from([0.0, 1e-3, 0.1]),
+    mu=st.sampled_from([0.0, 1e-3, 0.1]),
+)
+def test_fuzz_never_returns_nan(seed, t, d, n_nodes, repeats, force_scale, lam, mu):
+    rng = np.random.default_rng(seed)
+    x = rng.normal(size=(t, d)) * rng.choice([1e-6, 1.0, 100.0])
+    if repeats:
+        x[: t // 2] = x[0]  # a stationary start (duplicated samples)
+    f = force_scale * rng.normal(size=(t, d))
+    fit = fit_force_elastic_map(x, f, n_nodes=n_nodes, lam=lam, mu=mu, max_iter=30)
+    assert np.all(np.isfinite(fit.nodes))
+    assert np.all(np.isfinite(fit.node_times))
+    assert fit.stop_reason in {"converged", "energy_tol", "cycle", "max_iter"}
