@@ -1,0 +1,43 @@
+"""Multimodal probabilistic segmentation (paper §III-D, SPEC §2). NumPy/SciPy only (floor 1).
+
+    from lerobot_forcemap.segmentation import Stream, SegmentationConfig, segment_streams
+    seg = segment_streams([Stream("wrist_force", f, t, weight=0.35, threshold=0.15), ...],
+                          SegmentationConfig(mode="geometric", changepoints="peaks", seed=0))
+    seg.changepoints   # sorted frame indices, first 0 and last T
+    seg.pmf            # combined changepoint pmf (T,)
+    seg.keypoints      # stream name -> keypoint frames
+
+`auto_weights(streams, config)` proposes label-free stream weights (see its docstring).
+"""
+
+from .auto_weights import auto_weights, jerk_contrast, reweighted
+from .changepoints import enforce_min_segment_length, peak_changepoints, sample_changepoints
+from .combine import combine_pmfs, stream_pmf
+from .config import SegmentationConfig, Stream
+from .keypoints import StreamKeypoints, savgol_third_derivative, stream_keypoints, threshold_runs
+from .segment import SegmentationResult, StreamAnalysis, StreamResult, analyse_stream, segment_streams
+from .timebase import TimeRepair, TimeRepairWarning
+
+__all__ = [
+    "SegmentationConfig",
+    "SegmentationResult",
+    "Stream",
+    "StreamAnalysis",
+    "StreamKeypoints",
+    "StreamResult",
+    "TimeRepair",
+    "TimeRepairWarning",
+    "analyse_stream",
+    "auto_weights",
+    "combine_pmfs",
+    "enforce_min_segment_length",
+    "jerk_contrast",
+    "peak_changepoints",
+    "reweighted",
+    "sample_changepoints",
+    "savgol_third_derivative",
+    "segment_streams",
+    "stream_keypoints",
+    "stream_pmf",
+    "threshold_runs",
+]

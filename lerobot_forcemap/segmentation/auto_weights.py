@@ -1,0 +1,80 @@
+"""Automatic, label-free stream weights (the paper's future work, SPEC §2).
+
+Criterion: the **jerk contrast** of each stream, the peak-to-baseline ratio of the very signal its
+keypoints are thresholded on, in nepers:
+
+    s_i       = moving-average jerk norm of stream i divided by its maximum   (in [0, 1], max 1)
+    c_i       = ln(1 / max(median(s_i), eps)),   eps = 1e-3  (so 0 <= c_i <= ln 1000 ≈ 6.9)
+    v_i       = c_i / Σ_j c_j                    (weights sum to 1, like the paper's Table I)
+
+Why this one: thresholds are fractions of each stream's own maximum, so a keypoint means something
+only when the stream's typical level sits far below its peaks. A stream whose jerk is dominated by
+sensor noise (SPEC §2: raw differences of 166 Hz positions) has median(s) of 0.5–0.7 and c ≈ 0.3–0.7;
+a stream that is quiet between distinct events (gripper, finger force) has median(s) near 0 and
+c near the cap. The median is the robust "baseline" (events occupy a minority of frames in these
+demonstrations); eps caps the contrast of almost-always-still streams (a gripper that moves twice)
+so one stream cannot take all the weight. A flat stream (zero jerk everywhere, no keypoints possible)
+gets c = 0. The weights given on the streams are ignored.
+
+Other label-free criteria were considered: agreement of a stream's keypoints with the other streams'
+(penalises exactly the force-only events the paper wants force streams for), and the entropy of the
+stream pmf (cannot tell "no events" from "events everywhere").
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from .config import SegmentationConfig, Stream
+from .segment import analyse_stream
+from .timebase import check_shared_time_base
+
+CONTRAST_EPS = 1e-3
+
+
+def jerk_contrast(signal: np.ndarray, eps: float = CONTRAST_EPS) -> float:
+    """ln(1 / max(median(signal), eps)) for a normalised signal (max 1); 0.0 for an all-zero signal."""
+    if not signal.any():
+        return 0.0
+    return float(np.log(1.0 / max(float(np.median(signal)), eps)))
+
+
+def auto_weights(streams: Sequence[Stream], config: SegmentationConfig | None = None) -> dict[str, float]:
+    """Label-free weights v_i (summing to 1) from each stream's jerk contrast (see module doc).
+
+    Uses the config's derivative, window, polyorder and duplicated-timestamp policy. When every
+    stream is flat (no contrast anywhere) it warns and returns uniform weights.
+    """
+    config = SegmentationConfig() if config is None else config
+    streams = list(streams)
+    if not streams:
+        raise ValueError("auto_weights needs at least one stream")
+    names = [s.name for s in streams]
+    if len(set(names)) != len(names):
+        raise ValueError(f"stream names must be unique, got {names}")
+    check_shared_time_base(streams, config)
+    contrast = np.array([jerk_contrast(analyse_stream(s, config).signal) for s in streams])
+    total = float(contrast.sum())
+    if total <= 0.0:
+        warnings.warn(
+            f"auto_weights: no stream of {names} has any jerk contrast (all flat); returning uniform weights",
+            UserWarning,
+            stacklevel=2,
+        )
+        return {n: 1.0 / len(names) for n in names}
+    return {n: float(c / total) for n, c in zip(names, contrast, strict=True)}
+
+
+def reweighted(streams: Sequence[Stream], weights: Mapping[str, float]) -> list[Stream]:
+    """The same streams with the given weights (a missing name is an error)."""
+    missing = [s.name for s in streams if s.name not in weights]
+    if missing:
+        raise ValueError(f"no weight given for streams {missing}")
+    unknown = sorted(set(weights) - {s.name for s in streams})
+    if unknown:
+        raise ValueError(f"weights given for unknown streams {unknown}")
+    return [replace(s, weight=float(weights[s.name])) for s in streams]

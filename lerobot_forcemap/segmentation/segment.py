@@ -1,0 +1,199 @@
+"""`segment_streams`: keypoints per stream -> pmfs -> combined pmf -> changepoints (SPEC §2)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .changepoints import enforce_min_segment_length, peak_changepoints, sample_changepoints
+from .combine import combine_pmfs, stream_pmf
+from .config import SegmentationConfig, Stream
+from .keypoints import stream_keypoints
+from .timebase import TimeRepair, check_shared_time_base, repair_duplicate_times
+
+
+@dataclass(frozen=True, eq=False)
+class StreamResult:
+    """Per-stream outcome and diagnostics.
+
+    keypoints:   (K,) frame indices (original frames, after any time repair), sorted
+    pmf:         (T,) the stream's changepoint pmf (computed for zero-weight streams too)
+    floor_level: value of `pmf` far from keypoints
+    signal:      normalised moving-average jerk on the samples the derivative used
+    flat:        the smoothed jerk was zero everywhere (so no keypoints)
+    time_repair: what the duplicated-timestamp repair did, or None
+    used:        weight > 0, so the stream entered the combined pmf
+    """
+
+    name: str
+    weight: float
+    threshold: float
+    keypoints: np.ndarray
+    pmf: np.ndarray
+    floor_level: float
+    signal: np.ndarray
+    flat: bool
+    time_repair: TimeRepair | None
+    used: bool
+
+
+@dataclass(frozen=True, eq=False)
+class SegmentationResult:
+    """Outcome of `segment_streams`.
+
+    changepoints:   sorted frame indices, first 0 and last T; segment i is frames
+                    [changepoints[i], changepoints[i+1])
+    pmf:            (T,) combined changepoint pmf
+    floor_level:    value of `pmf` where no used stream has a keypoint nearby
+    keypoints:      stream name -> (K,) keypoint frames
+    streams:        stream name -> StreamResult (per-stream pmfs and diagnostics)
+    candidates:     changepoints proposed by sample/peaks before `min_segment_length`
+    rejected:       candidates removed by `min_segment_length`
+    draws:          sample mode: the sorted draws from `pmf`; peaks mode: None
+    time_tolerance: seconds within which the streams' sample times had to agree
+    config:         the configuration used
+    """
+
+    changepoints: np.ndarray
+    pmf: np.ndarray
+    floor_level: float
+    keypoints: dict[str, np.ndarray]
+    streams: dict[str, StreamResult]
+    candidates: np.ndarray
+    rejected: np.ndarray
+    draws: np.ndarray | None
+    time_tolerance: float
+    config: SegmentationConfig
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.pmf.size)
+
+    @property
+    def n_segments(self) -> int:
+        return int(self.changepoints.size - 1)
+
+    @property
+    def stream_pmfs(self) -> dict[str, np.ndarray]:
+        return {name: s.pmf for name, s in self.streams.items()}
+
+    @property
+    def segments(self) -> list[tuple[int, int]]:
+        """[(start, stop)) frame ranges of the segments."""
+        cp = self.changepoints.tolist()
+        return list(zip(cp[:-1], cp[1:], strict=True))
+
+    def labels(self) -> np.ndarray:
+        """(T,) int64 segment index of every frame."""
+        return np.repeat(np.arange(self.n_segments, dtype=np.int64), np.diff(self.changepoints))
+
+
+@dataclass(frozen=True, eq=False)
+class StreamAnalysis:
+    """Keypoint frames (original frame indices), normalised jerk signal, flatness and time repair of one stream."""
+
+    keypoints: np.ndarray
+    signal: np.ndarray
+    flat: bool
+    time_repair: TimeRepair | None
+
+
+def analyse_stream(stream: Stream, config: SegmentationConfig) -> StreamAnalysis:
+    """Keypoints of one stream on its own (duplicated timestamps repaired per `config.duplicate_times`)."""
+    repair = repair_duplicate_times(stream, config)
+    x, t = stream.values, stream.times
+    if repair is not None:
+        x, t = x[repair.kept_frames], t[repair.kept_frames]
+    needed = config.window + (3 if config.derivative == "difference" else 0)
+    if x.shape[0] < needed:
+        extra = f" after dropping {repair.n_dropped} duplicated-timestamp samples" if repair else ""
+        raise ValueError(
+            f"stream {stream.name!r}: {x.shape[0]} samples{extra}, but window={config.window} with"
+            f" derivative={config.derivative!r} needs at least {needed}"
+        )
+    found = stream_keypoints(
+        x,
+        t,
+        threshold=stream.threshold,
+        window=config.window,
+        min_run=config.min_run,
+        grace=config.grace,
+        derivative=config.derivative,
+        polyorder=config.polyorder,
+    )
+    keypoints = found.keypoints if repair is None else repair.kept_frames[found.keypoints]
+    return StreamAnalysis(keypoints=keypoints, signal=found.signal, flat=found.flat, time_repair=repair)
+
+
+def segment_streams(
+    streams: Sequence[Stream], config: SegmentationConfig | None = None
+) -> SegmentationResult:
+    """Segment one demonstration from its named streams (all sharing one time base of T frames).
+
+    Raises ValueError for: no streams, duplicate names, differing T or sample times, all weights 0,
+    streams shorter than the window, duplicated timestamps with duplicate_times="raise" (NaN/inf and
+    decreasing times are caught when each `Stream` is built).
+    """
+    config = SegmentationConfig() if config is None else config
+    streams = list(streams)
+    if not streams:
+        raise ValueError("segment_streams needs at least one stream")
+    for s in streams:
+        if not isinstance(s, Stream):
+            raise ValueError(f"segment_streams takes Stream objects, got {type(s).__name__}")
+    names = [s.name for s in streams]
+    if len(set(names)) != len(names):
+        dup = sorted({n for n in names if names.count(n) > 1})
+        raise ValueError(f"stream names must be unique, repeated: {dup}")
+    weights = np.array([s.weight for s in streams])
+    if not (weights > 0).any():
+        raise ValueError(f"all stream weights are zero ({names}): at least one stream needs a weight > 0")
+    tolerance = check_shared_time_base(streams, config)
+    n_frames = streams[0].n_frames
+
+    sigma = config.sigma_frames
+    per_stream: dict[str, StreamResult] = {}
+    pmfs = np.empty((len(streams), n_frames))
+    floors = np.empty(len(streams))
+    for i, s in enumerate(streams):  # streams, not samples
+        found = analyse_stream(s, config)
+        pmfs[i], floors[i] = stream_pmf(found.keypoints, n_frames, sigma, config.floor)
+        per_stream[s.name] = StreamResult(
+            name=s.name,
+            weight=s.weight,
+            threshold=s.threshold,
+            keypoints=found.keypoints,
+            pmf=pmfs[i],
+            floor_level=float(floors[i]),
+            signal=found.signal,
+            flat=found.flat,
+            time_repair=found.time_repair,
+            used=bool(s.weight > 0),
+        )
+
+    pmf, floor_level = combine_pmfs(pmfs, floors, weights, config.mode)
+    draws = None
+    if config.changepoints == "sample":
+        candidates, draws = sample_changepoints(
+            pmf, config.rng(), config.n_samples, config.n_pass, config.window
+        )
+    else:
+        candidates = peak_changepoints(pmf, floor_level, config.peak_ratio, config.window)
+    strength = pmf[np.clip(candidates, 0, n_frames - 1)]
+    changepoints, rejected = enforce_min_segment_length(
+        candidates, strength, n_frames, config.min_segment_frames
+    )
+    return SegmentationResult(
+        changepoints=changepoints,
+        pmf=pmf,
+        floor_level=floor_level,
+        keypoints={name: r.keypoints for name, r in per_stream.items()},
+        streams=per_stream,
+        candidates=candidates,
+        rejected=rejected,
+        draws=draws,
+        time_tolerance=tolerance,
+        config=config,
+    )

@@ -1,0 +1,103 @@
+"""Time-base checks and the duplicated-timestamp repair (SPEC §2: guard against zero time steps).
+
+A zero time step makes a finite-difference jerk infinite/NaN and distorts a Savitzky–Golay jerk
+(the filter assumes evenly spaced samples). One GBTI demo, upsampled from 941 to 1000 points,
+repeats its first sample 59 times. The repair: a sample whose time equals the previous sample's is
+dropped before the derivative is taken (the first of each run of equal times is kept), keypoints
+found on the remaining samples are mapped back to original frame indices, and the repair is
+reported (`TimeRepair` in the result and a `TimeRepairWarning`). Decreasing times are an error
+(raised by `Stream`).
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import SegmentationConfig, Stream
+
+
+class TimeRepairWarning(UserWarning):
+    """Samples with duplicated timestamps were merged before taking derivatives."""
+
+
+@dataclass(frozen=True, eq=False)
+class TimeRepair:
+    """What the duplicated-timestamp repair did to one stream.
+
+    kept_frames:      (T',) original frame indices of the samples the derivative used
+    dropped_frames:   (T - T',) original frame indices that repeated the previous sample's time
+    max_value_change: largest |value difference| between a dropped sample and the kept sample it
+                      repeats (0.0 when the duplicates are exact copies, as in the GBTI demo)
+    """
+
+    kept_frames: np.ndarray
+    dropped_frames: np.ndarray
+    max_value_change: float
+
+    @property
+    def n_dropped(self) -> int:
+        return int(self.dropped_frames.size)
+
+
+def repair_duplicate_times(stream: Stream, config: SegmentationConfig) -> TimeRepair | None:
+    """Find samples whose time equals the previous sample's; None when there are none.
+
+    Raises ValueError (naming the stream and frame) when `config.duplicate_times == "raise"`.
+    Emits a `TimeRepairWarning` when it merges.
+    """
+    duplicate = np.diff(stream.times) == 0.0  # (T-1,): frame i+1 repeats frame i's time
+    if not duplicate.any():
+        return None
+    dropped = np.flatnonzero(duplicate) + 1
+    if config.duplicate_times == "raise":
+        raise ValueError(
+            f"stream {stream.name!r}: duplicated timestamp at frame {int(dropped[0])}"
+            f" (t = {stream.times[dropped[0]]:.9f} s, {dropped.size} duplicated frames in all)"
+        )
+    keep = np.ones(stream.n_frames, dtype=bool)
+    keep[dropped] = False
+    kept = np.flatnonzero(keep)
+    # The kept sample each dropped one repeats: the last kept frame at or before it.
+    source = kept[np.searchsorted(kept, dropped, side="right") - 1]
+    max_change = float(np.abs(stream.values[dropped] - stream.values[source]).max())
+    warnings.warn(
+        f"stream {stream.name!r}: {dropped.size} samples repeat the previous sample's timestamp"
+        f" (first at frame {int(dropped[0])}); they were left out of the derivative"
+        f" (largest value change among them {max_change:.3g})",
+        TimeRepairWarning,
+        stacklevel=3,
+    )
+    return TimeRepair(kept_frames=kept, dropped_frames=dropped, max_value_change=max_change)
+
+
+def check_shared_time_base(streams: Sequence[Stream], config: SegmentationConfig) -> float:
+    """All streams must have the same T and the same sample times (within the tolerance).
+
+    Returns the tolerance used, in seconds. Raises ValueError naming the stream and first frame.
+    """
+    ref = streams[0]
+    if config.time_tolerance is not None:
+        tolerance = float(config.time_tolerance)
+    else:
+        dt = np.diff(ref.times)
+        positive = dt[dt > 0]
+        tolerance = 2.0 * float(np.median(positive)) if positive.size else 0.0
+    for s in streams[1:]:
+        if s.n_frames != ref.n_frames:
+            raise ValueError(
+                f"stream {s.name!r} has {s.n_frames} samples but stream {ref.name!r} has {ref.n_frames}:"
+                " all streams of one segmentation must share one time base (interpolate them onto it)"
+            )
+        off = np.abs(s.times - ref.times)
+        if (off > tolerance).any():
+            frame = int(np.argmax(off > tolerance))
+            raise ValueError(
+                f"stream {s.name!r}: sample time at frame {frame} differs from stream {ref.name!r}'s by"
+                f" {off[frame]:.6f} s (tolerance {tolerance:.6f} s): all streams must share one time base"
+                " (interpolate them onto it)"
+            )
+    return tolerance

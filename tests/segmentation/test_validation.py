@@ -1,0 +1,181 @@
+"""Bad input and the duplicated-timestamp repair: errors name the stream and frame; nothing is silent."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from lerobot_forcemap.segmentation import (
+    SegmentationConfig,
+    Stream,
+    TimeRepairWarning,
+    auto_weights,
+    segment_streams,
+)
+from lerobot_forcemap.segmentation.keypoints import difference_third_derivative
+from tests.segmentation.helpers import DT, jerk_bursts
+
+
+def event_stream(n: int = 941, seed: int = 0, rel_noise: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    onsets, lengths, jerks = np.array([150, 500]), np.array([150, 200]), np.array([1.0, -0.7])
+    return jerk_bursts(n, onsets, lengths, jerks, rng, n_cols=3, rel_noise=rel_noise)
+
+
+def pad_first_sample(values: np.ndarray, times: np.ndarray, repeats: int) -> tuple[np.ndarray, np.ndarray]:
+    """What the authors' downsampling did to a 941-sample GBTI demo: the first sample repeated to reach 1000."""
+    return np.concatenate([np.repeat(values[:1], repeats, axis=0), values]), np.concatenate(
+        [np.repeat(times[:1], repeats), times]
+    )
+
+
+@pytest.mark.parametrize("derivative", ["savgol", "difference"])
+def test_repeated_first_sample_is_merged_and_reported(derivative: str) -> None:
+    # Raw differences need noise-free data to see the events at all (SPEC §2).
+    values, times = event_stream(rel_noise=0.02 if derivative == "savgol" else 0.0)
+    padded_v, padded_t = pad_first_sample(values, times, 59)
+    config = SegmentationConfig(derivative=derivative, window=32, min_run=32)
+    clean = segment_streams([Stream("joints", values, times)], config)
+    with pytest.warns(TimeRepairWarning) as record:
+        padded = segment_streams(
+            [Stream("joints", padded_v, padded_t), Stream("gripper", np.zeros(1000), padded_t)], config
+        )
+    messages = sorted(str(r.message) for r in record)
+    assert len(messages) == 2
+    assert "'gripper': 59 samples repeat" in messages[0] and "'joints': 59 samples repeat" in messages[1]
+    if derivative == "difference":
+        with np.errstate(divide="ignore", invalid="ignore"):  # what the unguarded authors' jerk would be
+            assert not np.isfinite(difference_third_derivative(padded_v, padded_t)).all()
+    assert np.isfinite(padded.pmf).all() and padded.pmf.size == 1000
+    assert clean.keypoints["joints"].size >= 2
+    np.testing.assert_array_equal(padded.keypoints["joints"], clean.keypoints["joints"] + 59)
+    repair = padded.streams["joints"].time_repair
+    assert repair is not None and repair.n_dropped == 59 and repair.max_value_change == 0.0
+    np.testing.assert_array_equal(repair.dropped_frames, np.arange(1, 60))
+    assert padded.changepoints[-1] == 1000
+
+
+def test_duplicates_in_the_middle_with_different_values_are_reported() -> None:
+    values, times = event_stream(600)
+    times = times.copy()
+    times[300] = times[299]  # a stalled clock; the value differs
+    with pytest.warns(TimeRepairWarning, match="first at frame 300"):
+        seg = segment_streams([Stream("arm", values, times)], SegmentationConfig(window=32, min_run=32))
+    repair = seg.streams["arm"].time_repair
+    assert repair.dropped_frames.tolist() == [300]
+    assert repair.max_value_change == pytest.approx(np.abs(values[300] - values[299]).max())
+
+
+def test_duplicates_raise_when_asked() -> None:
+    values, times = pad_first_sample(*event_stream(), 59)
+    with pytest.raises(
+        ValueError, match=r"stream 'joints': duplicated timestamp at frame 1 .*59 duplicated frames"
+    ):
+        segment_streams([Stream("joints", values, times)], SegmentationConfig(duplicate_times="raise"))
+
+
+def test_no_warning_without_duplicates() -> None:
+    values, times = event_stream()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        seg = segment_streams([Stream("arm", values, times)], SegmentationConfig(window=32, min_run=32))
+    assert seg.streams["arm"].time_repair is None
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_non_finite_values_name_stream_frame_and_column(bad: float) -> None:
+    values, times = event_stream(300)
+    values = values.copy()
+    values[17, 2] = bad
+    values[40, 0] = bad
+    with pytest.raises(
+        ValueError, match=r"stream 'wrist_force': non-finite value .* at frame 17, column 2 \(2 bad frames"
+    ):
+        Stream("wrist_force", values, times)
+
+
+def test_bad_times_name_stream_and_frame() -> None:
+    values, times = event_stream(300)
+    t = times.copy()
+    t[5] = np.nan
+    with pytest.raises(ValueError, match="stream 'arm': non-finite time nan at frame 5"):
+        Stream("arm", values, t)
+    t = times.copy()
+    t[120] = t[118]
+    with pytest.raises(ValueError, match="stream 'arm': times decrease at frame 120"):
+        Stream("arm", values, t)
+    with pytest.raises(ValueError, match=r"stream 'arm': times must have shape \(300,\)"):
+        Stream("arm", values, times[:-1])
+
+
+def test_streams_must_share_one_time_base() -> None:
+    values, times = event_stream(300)
+    a = Stream("joints", values, times)
+    with pytest.raises(ValueError, match="stream 'finger' has 299 samples but stream 'joints' has 300"):
+        segment_streams([a, Stream("finger", values[:-1], times[:-1])])
+    # A 200 Hz stream against a 166 Hz one with the same sample count drifts apart.
+    with pytest.raises(
+        ValueError, match="stream 'finger': sample time at frame .* differs from stream 'joints'"
+    ):
+        segment_streams([a, Stream("finger", values, np.arange(300) * 0.005)])
+    # A constant offset of a few ms (recorder topics) is accepted
+    ok = segment_streams(
+        [a, Stream("gripper", values, times + 0.008)], SegmentationConfig(window=32, min_run=32)
+    )
+    assert ok.time_tolerance == pytest.approx(2 * DT)
+    with pytest.raises(ValueError, match="differs"):
+        auto_weights([a, Stream("finger", values, np.arange(300) * 0.005)])
+
+
+def test_other_bad_input() -> None:
+    values, times = event_stream(300)
+    with pytest.raises(ValueError, match="window=64 with derivative='difference' needs at least 67"):
+        segment_streams(
+            [Stream("short", values[:66], times[:66])], SegmentationConfig(derivative="difference")
+        )
+    with pytest.raises(ValueError, match="after dropping 59 duplicated-timestamp samples"):
+        with pytest.warns(TimeRepairWarning):
+            v, t = pad_first_sample(values[:60], times[:60], 59)
+            segment_streams([Stream("short", v, t)])
+    with pytest.raises(ValueError, match=r"repeated: \['a'\]"):
+        segment_streams([Stream("a", values, times), Stream("a", values, times)])
+    with pytest.raises(ValueError, match="at least one stream"):
+        segment_streams([])
+    with pytest.raises(ValueError, match="stream 'a': weight must be finite and >= 0"):
+        Stream("a", values, times, weight=-0.1)
+    with pytest.raises(ValueError, match=r"stream 'a': threshold .* in \(0, 1\]"):
+        Stream("a", values, times, threshold=1.5)
+    with pytest.raises(ValueError, match="stream 'a': values must have shape"):
+        Stream("a", np.zeros((300, 2, 2)), times)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"mode": "sum"}, "mode must be one of"),
+        ({"changepoints": "viterbi"}, "changepoints must be one of"),
+        ({"derivative": "spline"}, "derivative must be one of"),
+        ({"window": 3}, "window must be an int >= 5"),
+        ({"floor": 0.0}, "floor must be > 0"),
+        ({"sigma": -1.0}, "sigma must be None or > 0"),
+        ({"seed": 1.5}, "seed must be an int"),
+        ({"min_segment_length": 0}, "min_segment_length"),
+        ({"polyorder": 2}, "polyorder"),
+        ({"peak_ratio": 0.5}, "peak_ratio"),
+        ({"duplicate_times": "ignore"}, "duplicate_times"),
+    ],
+)
+def test_config_validation(kwargs: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        SegmentationConfig(**kwargs)
+
+
+def test_stream_keeps_caller_arrays_writable() -> None:
+    values, times = event_stream(300)
+    stream = Stream("arm", values, times)
+    assert values.flags.writeable and times.flags.writeable  # the caller's arrays stay writable
+    assert not stream.values.flags.writeable  # the stream's own view is read-only
+    with pytest.raises(ValueError):
+        stream.values[0, 0] = 1.0
