@@ -24,7 +24,14 @@ from .solve import (
     solve_m_step_banded,
     solve_m_step_clarabel,
 )
-from .weights import ForcePoints, ForceWeights, cluster_sums, force_point_weights, make_force_points
+from .weights import (
+    ForcePoints,
+    ForceWeights,
+    cluster_sums,
+    force_point_weights,
+    make_force_points,
+    project_on_contact_normal,
+)
 
 __all__ = [
     "Constraints",
@@ -45,6 +52,7 @@ __all__ = [
     "cluster_sums",
     "force_point_weights",
     "make_force_points",
+    "project_on_contact_normal",
     "DEFAULT_LAMBDA",
     "DEFAULT_MU",
     "DEFAULT_DELTA",

@@ -21,7 +21,7 @@ Decisions where the paper is silent (documented in the README too):
   ``rho_max`` cap leaves uncapped); a float sets one ω for all points.
 - Stop reasons: ``"converged"`` (assignments unchanged, and nodes and spring lengths moved less
   than ``xtol`` times the data scale), ``"energy_tol"`` (the assignment still changed but the relative energy change
-  fell below ``tol``), ``"cycle"`` (assignment and nodes alternate between two states),
+  fell below ``tol``), ``"cycle"`` (the assignment repeats with a period of 2 to 8 iterations),
   ``"max_iter"``. Without force points an unchanged assignment gives identical nodes, which is the
   authors' stop rule; with force points the spring lengths keep converging after the assignment
   settles, so "converged" also waits for the nodes to stop.
@@ -397,7 +397,7 @@ def fit_force_elastic_map(
 
     # ---- EM
     labels_hist: list[NDArray[np.intp]] = []
-    nodes_hist: list[Array] = []
+    hashes: list[int] = []
     history: list[float] = []
     spring = None
     spring_moved = 0.0
@@ -448,19 +448,16 @@ def fit_force_elastic_map(
         if not same and len(history) >= 2 and abs(history[-1] - history[-2]) <= tol * max(abs(history[-2]), 1e-300):
             reason = "energy_tol"
             break
-        # a 2-cycle: the assignment and the nodes return to where they were two iterations ago
-        if (
-            len(labels_hist) >= 2
-            and not same
-            and np.array_equal(labels, labels_hist[-2])
-            and float(np.max(np.abs(y - nodes_hist[-2]))) <= 1e-6 * scale
+        # A limit cycle: the last two assignments both repeat those p >= 2 iterations earlier.
+        hashes.append(hash(labels.tobytes()))
+        if not same and any(
+            hashes[-1] == hashes[-1 - p] and hashes[-2] == hashes[-2 - p] for p in range(2, min(9, len(hashes) - 1))
         ):
             reason = "cycle"
             break
         labels_hist = [*labels_hist[-1:], labels]
-        nodes_hist = [*nodes_hist[-1:], y]
 
-    labels = assign_nearest(x, y)
+    labels = assigner(y)  # the assignment to the returned nodes (bounds make this cheap)
     node_t = node_time_law(labels, u, n_nodes, duration)
     quats = None
     if quat_list is not None:

@@ -23,7 +23,15 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["ForcePoints", "ForceWeights", "make_force_points", "force_point_weights", "cluster_sums", "row_norms"]
+__all__ = [
+    "ForcePoints",
+    "ForceWeights",
+    "make_force_points",
+    "force_point_weights",
+    "cluster_sums",
+    "row_norms",
+    "project_on_contact_normal",
+]
 
 Array = NDArray[np.float64]
 
@@ -135,3 +143,19 @@ def force_point_weights(
     capped = ratio > rho_max
     scale = np.where(capped, rho_max / np.where(capped, ratio, 1.0), 1.0)
     return ForceWeights(w * scale[tied_node], capped, ratio)
+
+
+def project_on_contact_normal(forces: Array, normal: Array) -> Array:
+    """The size of each force's component along a known contact normal, as a reaction along ``+normal``.
+
+    forces (T, d), normal (d,) pointing away from the surface -> (T, d). For recordings whose sensor
+    also sees other forces (a kinesthetic teacher's hand on the tool, drag): it keeps what a sensor
+    between the contact and the arm would report along the normal, pointing away from the surface as
+    the force points assume, and drops the tangential part.
+    """
+    n = np.asarray(normal, dtype=float)
+    norm = np.linalg.norm(n)
+    if norm == 0 or not np.isfinite(norm):
+        raise ValueError(f"normal: must be a finite non-zero vector, got {normal!r}")
+    n = n / norm
+    return np.abs(np.asarray(forces, dtype=float) @ n)[:, None] * n[None, :]
