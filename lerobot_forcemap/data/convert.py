@@ -1,0 +1,503 @@
+"""``forcemap convert``: lab-recorder / GBTI h5 recordings -> a LeRobot v3 dataset.
+
+Per episode (one per h5 file, or one per GBTI demo): read (:mod:`.recorder`), tare the wrench in the
+tool frame, rotate it to the base frame, low-pass it against aliasing and resample every stream to
+``fps`` (:func:`.transforms.align_recording`), then write frames with ``LeRobotDataset.create`` /
+``add_frame`` / ``save_episode`` / ``finalize``. Features (``schema.dataset_features``):
+
+    observation.state        6 UR5e joints (kinematic order, rad) + gripper opening 0 open .. 1 closed
+    observation.ee_pose      flange position (m) + quaternion w x y z, base frame
+    observation.force        fx fy fz tx ty tz, base frame, tared, reaction on the robot, low-passed
+    observation.finger_force GBTI only: raw finger-force counts (uncalibrated, not tared), name "f0"
+    action                   the *next* frame's ee pose and gripper opening (absolute target; the last
+                             frame repeats its own pose: hold)
+    source_timestamp         s since the source recording's first sample (its epoch time is in
+                             meta/forcemap_sources.json)
+
+Recordings without a gripper stream get gripper opening 0.0 (open) with a warning and a note in the
+sources file. Per-episode provenance (file, GBTI key, tare window and bias, trimmed seconds, collapsed
+duplicate timestamps, warnings) goes to ``meta/forcemap_sources.json``; units and frames to the card.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import warnings
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from lerobot_forcemap import layout
+from lerobot_forcemap.data.recorder import GbtiKey, Recording, gbti_keys, iter_gbti_demos, read_recording
+from lerobot_forcemap.data.schema import add_episode, dataset_features, write_dataset_card
+from lerobot_forcemap.data.transforms import (
+    GRIPPER_FULL_SCALE,
+    LAB_WRENCH_SIGN,
+    AlignedRecording,
+    align_recording,
+)
+
+__all__ = [
+    "DEFAULT_FPS",
+    "LOWPASS_FRACTION_OF_FPS",
+    "SOURCES_FILE",
+    "EpisodeSource",
+    "ConversionResult",
+    "episode_arrays",
+    "resolve_lowpass_hz",
+    "convert_episodes",
+    "convert_recordings",
+    "convert_gbti",
+    "guess_task",
+    "add_arguments",
+    "run",
+]
+
+# 50 Hz: several samples across a 20-60 ms contact transient, 3-5x the 10-20 Hz control rate of the
+# sim tasks, and a small dataset (the sources record at 166 Hz (GBTI, three-button) or 500 Hz).
+DEFAULT_FPS = 50
+# Anti-alias cutoff of the wrench low-pass, as a fraction of the target fps (0.4 fps < Nyquist 0.5 fps).
+LOWPASS_FRACTION_OF_FPS = 0.4
+SOURCES_FILE = "meta/forcemap_sources.json"
+GBTI_TASKS = {"Cube": "grasp the cube", "Mug": "grasp the mug", "Plate": "grasp the plate"}
+FINGER_FORCE_NAMES = layout.finger_force_names(1, axes="")  # ("f0",): one scalar sensor
+FINGER_FORCE_UNITS = (
+    "raw finger-force sensor counts, uncalibrated and not tared (GBTI: about 360-380 with no contact, "
+    "up to ~1100 when squeezing; the Mug/User4 demos read -645 at rest and up to 28283)"
+)
+KNOWN_TASKS = {
+    "three_button_press": "press three buttons",
+    "press": "press the button",
+    "erase": "wipe the whiteboard",
+}
+
+
+@dataclass(frozen=True)
+class EpisodeSource:
+    """One episode to convert: the recording, its task string, where it came from."""
+
+    recording: Recording
+    task: str
+    source: str
+    gbti_key: GbtiKey | None = None
+
+
+@dataclass(frozen=True)
+class ConversionResult:
+    """What :func:`convert_episodes` wrote."""
+
+    root: Path
+    repo_id: str
+    fps: int
+    n_episodes: int
+    n_frames: int
+    episodes: list[dict[str, Any]] = field(default_factory=list)
+
+
+def guess_task(path: str | Path) -> str:
+    """Task string from a recorder file name (``press_...`` -> "press the button"), else the stem."""
+    stem = Path(path).stem
+    for prefix, task in KNOWN_TASKS.items():
+        if stem.startswith(prefix):
+            return task
+    return stem
+
+
+def resolve_lowpass_hz(lowpass_hz: float | str | None, fps: float, source_rate_hz: float) -> float | None:
+    """``"auto"``: ``LOWPASS_FRACTION_OF_FPS * fps`` when that is below the source's Nyquist (else no
+    filter: nothing to anti-alias); a number: that cutoff; ``None`` or 0: no filter."""
+    if lowpass_hz in (None, 0, 0.0):
+        return None
+    if lowpass_hz == "auto":
+        cutoff = LOWPASS_FRACTION_OF_FPS * fps
+        return cutoff if cutoff < 0.45 * source_rate_hz else None
+    return float(lowpass_hz)
+
+
+def episode_arrays(
+    aligned: AlignedRecording,
+    *,
+    finger_force: bool,
+    gripper_default: float = layout.GRIPPER_OPEN,
+) -> dict[str, np.ndarray]:
+    """Feature arrays ``{key: (T, dim)}`` of one aligned recording (float32 except noted).
+
+    state = joints (6) + gripper opening; ee_pose = positions + orientations; force = force + torque;
+    action[t] = (ee_pose[t+1], gripper[t+1]) and action[T-1] = (ee_pose[T-1], gripper[T-1]);
+    source_timestamp = seconds since the source recording's first sample.
+    """
+    n = len(aligned)
+    gripper = aligned.gripper if aligned.gripper is not None else np.full(n, float(gripper_default))
+    ee_pose = aligned.ee_pose
+    nxt = np.minimum(np.arange(n) + 1, n - 1)
+    arrays = {
+        layout.OBS_STATE: np.concatenate([aligned.joint_positions, gripper[:, None]], axis=1),
+        layout.OBS_EE_POSE: ee_pose,
+        layout.OBS_FORCE: aligned.wrench,
+        layout.ACTION: np.concatenate([ee_pose[nxt], gripper[nxt, None]], axis=1),
+        layout.SOURCE_TIMESTAMP: (aligned.times + aligned.trimmed_s[0])[:, None],
+    }
+    if finger_force:
+        if aligned.finger_force is None:
+            raise ValueError(
+                f"episode {aligned.name!r}: the dataset has finger forces but this recording has none"
+            )
+        arrays[layout.OBS_FINGER_FORCE] = aligned.finger_force[:, None]
+    return {k: np.asarray(v, dtype=np.float32) for k, v in arrays.items()}
+
+
+def _episode_record(
+    index: int, src: EpisodeSource, a: AlignedRecording, n: int, lowpass: float | None
+) -> dict:
+    rec = src.recording
+    b = a.bias
+    return {
+        "episode_index": index,
+        "name": rec.name,
+        "source": src.source,
+        "gbti_key": None
+        if src.gbti_key is None
+        else {
+            "object": src.gbti_key.object,
+            "user": src.gbti_key.user,
+            "position": src.gbti_key.position,
+        },
+        "task": src.task,
+        "frames": n,
+        "source_start_epoch_s": rec.start_time,
+        "first_frame_source_s": a.trimmed_s[0],
+        "trimmed_s": list(a.trimmed_s),
+        "source_samples": {c.stream.rsplit("/", 1)[-1]: c.n_in for c in a.time_cleaning},
+        "duplicate_timestamps_collapsed": {
+            c.stream.rsplit("/", 1)[-1]: c.duplicates_collapsed for c in a.time_cleaning
+        },
+        "source_rate_hz": {k: round(v, 3) for k, v in a.source_rate_hz.items()},
+        "tare": {
+            "frame": "tool",
+            "window": b.window,
+            "samples": list(b.index),
+            "force_bias_n": np.round(b.force, 4).tolist(),
+            "torque_bias_nm": np.round(b.torque, 5).tolist(),
+            "force_std_n": np.round(b.force_std, 4).tolist(),
+            "start_end_disagreement_n": None
+            if not np.isfinite(b.disagreement_n)
+            else round(b.disagreement_n, 4),
+        },
+        "wrench_sign": LAB_WRENCH_SIGN,
+        "force_lowpass_hz": lowpass,
+        "gripper_recorded": rec.gripper is not None,
+        "warnings": list(a.warnings),
+    }
+
+
+def convert_episodes(
+    sources: Iterable[EpisodeSource],
+    out: str | Path,
+    *,
+    repo_id: str = "local/forcemap",
+    fps: int = DEFAULT_FPS,
+    tare: str = "auto",
+    force_lowpass_hz: float | str | None = "auto",
+    gripper_full_scale: float = GRIPPER_FULL_SCALE,
+    on_duplicate: str = "merge",
+    title: str = "Force demonstrations",
+    source_text: str = "lab recorder h5 files",
+    robot: str = "UR5e with a wrist force/torque sensor",
+    robot_type: str = "ur5e",
+    card_extra: dict[str, Any] | None = None,
+    finger_force_units: str | None = None,
+    overwrite: bool = False,
+    progress: bool = True,
+    total: int | None = None,
+) -> ConversionResult:
+    """Write every source as one episode of a new LeRobot v3 dataset at ``out``.
+
+    The feature set follows the first source (finger force iff it has one); a later source that does
+    not match raises ``ValueError`` naming it. ``out`` must not exist unless ``overwrite``.
+    """
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lazy: heavy import
+
+    out = Path(out)
+    if not float(fps).is_integer() or fps <= 0:
+        raise ValueError(f"fps must be a positive integer (LeRobot stores an int), got {fps}")
+    fps = int(fps)
+    if out.exists():
+        if not overwrite:
+            raise ValueError(f"output {out} exists (use overwrite=True / --overwrite)")
+        shutil.rmtree(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+
+    import datasets as hf_datasets
+
+    # LeRobot's save_episode runs a `datasets` map with its own progress bar per episode; ours is enough.
+    bars_were_on = hf_datasets.is_progress_bar_enabled()
+    hf_datasets.disable_progress_bars()
+    dataset = None
+    features: dict[str, Any] = {}
+    finger = False
+    records: list[dict[str, Any]] = []
+    n_frames = 0
+    try:
+        for index, src in enumerate(
+            tqdm(sources, total=total, desc="convert", unit="episode", disable=not progress)
+        ):
+            rec = src.recording
+            if dataset is None:
+                finger = rec.finger_force is not None
+                features = dataset_features(
+                    layout.state_names(layout.UR5E_JOINT_NAMES),
+                    finger_force_names=FINGER_FORCE_NAMES if finger else None,
+                    source_timestamp=True,
+                )
+                dataset = LeRobotDataset.create(
+                    repo_id, fps=fps, features=features, root=out, robot_type=robot_type, use_videos=False
+                )
+            if (rec.finger_force is not None) != finger:
+                raise ValueError(
+                    f"episode {index} ({src.source}): finger force {'missing' if finger else 'present'}, unlike "
+                    f"the first episode; convert these recordings into separate datasets"
+                )
+            rate = float(1.0 / np.median(np.diff(rec.wrench_time)))
+            lowpass = resolve_lowpass_hz(force_lowpass_hz, fps, rate)
+            a = align_recording(
+                rec,
+                fps=fps,
+                tare=tare,
+                gripper_full_scale=gripper_full_scale,
+                force_lowpass_hz=lowpass,
+                on_duplicate=on_duplicate,
+            )
+            if rec.gripper is None:
+                msg = f"no gripper stream: observation.state gripper and action gripper set to {layout.GRIPPER_OPEN} (open)"
+                warnings.warn(f"{rec.name}: {msg}", stacklevel=2)
+                a = _with_warning(a, msg)
+            arrays = episode_arrays(a, finger_force=finger)
+            n = add_episode(dataset, arrays, src.task, episode=f"{index} ({rec.name})")
+            records.append(_episode_record(index, src, a, n, lowpass))
+            n_frames += n
+        if dataset is None:
+            raise ValueError("no recordings to convert")
+        dataset.finalize()
+    except BaseException:
+        if dataset is not None:  # close the writers, then remove the half-written dataset
+            dataset.finalize()
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+    finally:
+        if bars_were_on:
+            hf_datasets.enable_progress_bars()
+
+    settings = {
+        "fps": fps,
+        "tare": tare,
+        "force_lowpass_hz": force_lowpass_hz,
+        "gripper_full_scale": gripper_full_scale,
+        "wrench_sign": LAB_WRENCH_SIGN,
+        "on_duplicate_timestamps": on_duplicate,
+    }
+    (out / SOURCES_FILE).write_text(json.dumps({"settings": settings, "episodes": records}, indent=1))
+    _write_card(
+        out,
+        records,
+        features,
+        fps=fps,
+        title=title,
+        source_text=source_text,
+        robot=robot,
+        repo_id=repo_id,
+        extra=card_extra,
+        finger_force_units=finger_force_units,
+    )
+    return ConversionResult(out, repo_id, fps, len(records), n_frames, records)
+
+
+def _with_warning(a: AlignedRecording, msg: str) -> AlignedRecording:
+    from dataclasses import replace
+
+    return replace(a, warnings=(*a.warnings, msg))
+
+
+def _write_card(
+    out: Path, records, features, *, fps, title, source_text, robot, repo_id, extra, finger_force_units
+):
+    lowpass = sorted({r["force_lowpass_hz"] for r in records}, key=lambda x: (x is None, x))
+    notes: dict[str, Any] = {
+        "Resampling": f"every stream linearly interpolated (orientations by SLERP) to {fps} Hz inside the interval "
+        "all streams cover; `source_timestamp` gives each frame's time in the source recording",
+        "Tare": "wrist wrench minus the median over a 0.2 s rest window in the tool frame (start window if the "
+        "sensor is quiet there, force std < 0.5 N, else the end window); window and bias per episode in "
+        f"`{SOURCES_FILE}`",
+        "Wrench frame and sign": "tared tool-frame wrench rotated to the base frame with the recorded flange "
+        "orientation; the recorder already reports the reaction on the robot (sign +1: pressing a button reads "
+        "+z, away from the surface)",
+        "Low-pass": f"zero-phase 2nd-order Butterworth on the base-frame wrench at the source rate before "
+        f"resampling, cutoff {', '.join('none' if x is None else f'{x:g} Hz' for x in lowpass)}",
+        "Kinesthetic teaching": "the wrist sensor also measures the guiding hand's force on the tool while the "
+        "robot is moved by hand (typically 10-20 N); it is not separable from contact force and stays in "
+        "`observation.force`",
+        "Action": "absolute Cartesian target = the next frame's flange pose and gripper opening "
+        "(the last frame holds its own)",
+        "Joints": "observation.state joints in kinematic order (shoulder_pan .. wrist_3), reordered from the "
+        "recorder's alphabetical ROS order",
+        "Gripper": "opening normalised raw/100 (0 open .. 1 closed); recordings without a gripper stream get 0",
+    }
+    notes.update(extra or {})
+    episodes_md = ["| episode | source | task | frames | tare window |", "|---|---|---|---|---|"]
+    for r in records:
+        src = r["name"] if r["gbti_key"] else Path(r["source"]).name
+        episodes_md.append(
+            f"| {r['episode_index']} | {src} | {r['task']} | {r['frames']} | {r['tare']['window']} |"
+        )
+    units = (
+        {layout.OBS_FINGER_FORCE: finger_force_units or FINGER_FORCE_UNITS}
+        if layout.OBS_FINGER_FORCE in features
+        else {}
+    )
+    units[layout.OBS_EE_POSE] = "flange (tool0) position m; quaternion w x y z (unit); base frame"
+    units[layout.SOURCE_TIMESTAMP] = "s since the first sample of the source recording"
+    write_dataset_card(
+        out,
+        title=title,
+        source=source_text,
+        robot=robot,
+        units=units,
+        extra="\n".join(
+            [*(f"- **{k}:** {v}" for k, v in notes.items()), "", "### Episodes", "", *episodes_md]
+        ),
+        repo_id=repo_id,
+    )
+
+
+def convert_recordings(
+    paths: Sequence[str | Path], out: str | Path, *, task: str | None = None, **kwargs: Any
+) -> ConversionResult:
+    """Lab-recorder h5 files -> one dataset, one episode per file (task: given, else :func:`guess_task`)."""
+    paths = [Path(p) for p in paths]
+    if not paths:
+        raise ValueError("no input files")
+    for p in paths:
+        if not p.is_file():
+            raise ValueError(f"input file not found: {p}")
+
+    def sources():
+        for p in paths:
+            yield EpisodeSource(read_recording(p), task or guess_task(p), str(p))
+
+    kwargs.setdefault("source_text", "lab recorder h5 files: " + ", ".join(p.name for p in paths))
+    return convert_episodes(sources(), out, total=len(paths), **kwargs)
+
+
+def convert_gbti(
+    path: str | Path,
+    out: str | Path,
+    *,
+    keys: Sequence[GbtiKey | str] | None = None,
+    task: str | None = None,
+    **kwargs: Any,
+) -> ConversionResult:
+    """The GBTI grasping file -> one dataset, one episode per demo (all 60 unless ``keys``).
+
+    Task per object ("grasp the cube" / "mug" / "plate") unless ``task`` is given."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"GBTI file not found: {path}")
+    key_list = (
+        gbti_keys(path) if keys is None else [k if isinstance(k, GbtiKey) else GbtiKey.parse(k) for k in keys]
+    )
+
+    def sources():
+        for key, rec in iter_gbti_demos(path, key_list):
+            text = task or GBTI_TASKS.get(key.object, f"grasp the {key.object.lower()}")
+            yield EpisodeSource(rec, text, f"{path}:{key}", key)
+
+    kwargs.setdefault("title", "GBTI grasping demonstrations (UR5e, wrist F/T, finger force)")
+    kwargs.setdefault(
+        "source_text",
+        f"{path.name}: GBTI grasping set, 3 objects x 4 demonstrators x 5 positions, kinesthetic teaching "
+        "(layout of brenhertel/GBTI-Grasping-Dataset, rebuilt from brenhertel/pearl_ur5e)",
+    )
+    kwargs.setdefault(
+        "robot", "UR5e with a wrist force/torque sensor and a gripper with one finger-force sensor"
+    )
+    return convert_episodes(sources(), out, total=len(key_list), **kwargs)
+
+
+# ---- CLI ------------------------------------------------------------------------------------------------
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "inputs", nargs="+", metavar="INPUT", help="lab-recorder h5 files, or one GBTI h5 with --gbti"
+    )
+    parser.add_argument(
+        "--out", required=True, help="output dataset folder (must not exist unless --overwrite)"
+    )
+    parser.add_argument("--repo-id", default="local/forcemap", help="dataset id (any string works locally)")
+    parser.add_argument(
+        "--fps", type=int, default=DEFAULT_FPS, help=f"resampling rate in Hz (default {DEFAULT_FPS})"
+    )
+    parser.add_argument(
+        "--gbti", action="store_true", help="INPUT is the GBTI grasping file: one episode per demo"
+    )
+    parser.add_argument(
+        "--gbti-keys", nargs="+", metavar="KEY", help="only these demos, e.g. Cube/User1/Position1"
+    )
+    parser.add_argument(
+        "--task", help="task string for every episode (default: from the file name / GBTI object)"
+    )
+    parser.add_argument(
+        "--tare", choices=["auto", "start", "end", "none"], default="auto", help="wrench bias window"
+    )
+    parser.add_argument(
+        "--force-lowpass-hz",
+        default="auto",
+        help=f"wrench anti-alias cutoff in Hz, 'auto' ({LOWPASS_FRACTION_OF_FPS} x fps) or 0 for none",
+    )
+    parser.add_argument(
+        "--gripper-full-scale", type=float, default=GRIPPER_FULL_SCALE, help="raw gripper reading = closed"
+    )
+    parser.add_argument(
+        "--on-duplicate-timestamps",
+        choices=["merge", "raise"],
+        default="merge",
+        help="samples repeating the previous timestamp: collapse them with a warning (default) or fail",
+    )
+    parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+
+
+def run(args: argparse.Namespace) -> int:
+    lowpass: float | str | None = args.force_lowpass_hz
+    if lowpass != "auto":
+        try:
+            lowpass = float(lowpass) or None
+        except ValueError as err:
+            raise SystemExit(f"--force-lowpass-hz must be a number or 'auto', got {lowpass!r}") from err
+    common = dict(
+        repo_id=args.repo_id,
+        fps=args.fps,
+        tare=args.tare,
+        force_lowpass_hz=lowpass,
+        gripper_full_scale=args.gripper_full_scale,
+        overwrite=args.overwrite,
+        on_duplicate=args.on_duplicate_timestamps,
+    )
+    if args.gbti:
+        if len(args.inputs) != 1:
+            raise SystemExit("--gbti takes exactly one INPUT file")
+        result = convert_gbti(args.inputs[0], args.out, keys=args.gbti_keys, task=args.task, **common)
+    else:
+        if args.gbti_keys:
+            raise SystemExit("--gbti-keys needs --gbti")
+        result = convert_recordings(args.inputs, args.out, task=args.task, **common)
+    size = sum(p.stat().st_size for p in result.root.rglob("*") if p.is_file())
+    print(
+        f"wrote {result.n_episodes} episode(s), {result.n_frames} frames at {result.fps} Hz to {result.root} "
+        f"({size / 1e6:.2f} MB)"
+    )
+    return 0

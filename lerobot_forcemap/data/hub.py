@@ -1,0 +1,67 @@
+"""Push a converted / recorded dataset to the Hugging Face Hub with our dataset card.
+
+A thin wrapper over ``LeRobotDataset.push_to_hub`` (LeRobot 0.6.1): it creates the dataset repo
+(``HfApi.create_repo``), uploads the dataset folder (``upload_folder``, so ``meta/forcemap_*.json``
+and the local README.md go too), pushes a card built from LeRobot's template and tags the revision
+``v3.0`` (``create_tag``). LeRobot regenerates the card from its template when pushing, so the
+description that :func:`lerobot_forcemap.data.schema.write_dataset_card` stored in
+``meta/forcemap_card.json`` (units, frames, sources) is passed back in as ``dataset_description``.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+__all__ = ["CARD_FILE", "card_kwargs", "push_dataset"]
+
+CARD_FILE = "meta/forcemap_card.json"
+
+
+def card_kwargs(root: str | Path) -> dict[str, Any]:
+    """``tags``, ``license`` and ``dataset_description`` for ``push_to_hub`` from ``meta/forcemap_card.json``
+    (empty when the dataset has no forcemap card)."""
+    path = Path(root) / CARD_FILE
+    if not path.is_file():
+        return {}
+    card = json.loads(path.read_text())
+    return {k: card[k] for k in ("tags", "license", "dataset_description") if card.get(k) is not None}
+
+
+def push_dataset(
+    root: str | Path,
+    repo_id: str,
+    *,
+    private: bool | None = None,
+    tags: Sequence[str] | None = None,
+    branch: str | None = None,
+    push_videos: bool = True,
+    tag_version: bool = True,
+) -> str:
+    """Push the LeRobot dataset at ``root`` to ``https://huggingface.co/datasets/<repo_id>``; returns its URL.
+
+    ``repo_id`` must be ``owner/name``. Needs a Hugging Face token (``huggingface-cli login`` or
+    ``HF_TOKEN``) and network access (unset ``HF_HUB_OFFLINE``).
+    """
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lazy: heavy import
+
+    root = Path(root)
+    if not (root / "meta" / "info.json").is_file():
+        raise ValueError(f"{root}: not a LeRobot dataset (no meta/info.json)")
+    if repo_id.count("/") != 1 or not all(repo_id.split("/")):
+        raise ValueError(f"repo_id must be 'owner/name', got {repo_id!r}")
+    kwargs = card_kwargs(root)
+    kwargs["tags"] = sorted({*kwargs.get("tags", ()), *(tags or ())}) or None
+    license_id = kwargs.pop("license", "apache-2.0")
+    dataset = LeRobotDataset(repo_id, root=root)
+    dataset.push_to_hub(
+        branch=branch,
+        license=license_id,
+        tag_version=tag_version,
+        push_videos=push_videos,
+        private=private,
+        **kwargs,
+    )
+    return f"https://huggingface.co/datasets/{repo_id}"

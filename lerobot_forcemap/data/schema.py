@@ -1,0 +1,371 @@
+"""LeRobot v3 feature dicts, frame/episode validation and dataset cards for force datasets (SPEC §3).
+
+Every feature key and name list comes from :mod:`lerobot_forcemap.layout`; this module only assembles
+them into LeRobot's ``{"dtype", "shape", "names"}`` dicts. Shapes are tuples (LeRobot compares
+``value.shape`` with ``feature["shape"]``; ``(1,)`` is a scalar column).
+
+Nothing here imports LeRobot at module level (the card writer imports it lazily), so envs and the
+policy can build and check features cheaply.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lerobot_forcemap import layout
+
+__all__ = [
+    "FLOAT_DTYPE",
+    "LEROBOT_AUTO_KEYS",
+    "FRAME_EXTRA_KEYS",
+    "SEGMENT_INDEX_FEATURE",
+    "SOURCE_TIMESTAMP_FEATURE",
+    "dataset_features",
+    "numeric_feature_keys",
+    "validate_frame",
+    "validate_episode_arrays",
+    "add_episode",
+    "card_markdown",
+    "write_dataset_card",
+]
+
+FLOAT_DTYPE = "float32"
+# Columns LeRobot adds by itself (never passed to add_frame).
+LEROBOT_AUTO_KEYS = ("timestamp", "frame_index", "episode_index", "index", "task_index")
+# Keys a frame passed to ``add_frame`` may carry besides the features.
+FRAME_EXTRA_KEYS = ("task",)
+
+# Per-frame segment label (int64 scalar column). Not under ``observation.``, so LeRobot's policy
+# feature typing ignores it; the forcemap policy reads it explicitly.
+SEGMENT_INDEX_FEATURE: dict[str, Any] = {"dtype": "int64", "shape": (1,), "names": None}
+# Source-clock time of each frame: seconds since the first sample of the source recording (whose
+# epoch time goes to meta/forcemap_sources.json). Relative and float32 on purpose: LeRobot's
+# ``ds[i]`` hands every float column back as float32, which would round an epoch time (1.7e9 s) to
+# 128 s; relative seconds keep ~2 µs resolution over a minute.
+SOURCE_TIMESTAMP_FEATURE: dict[str, Any] = {"dtype": "float32", "shape": (1,), "names": None}
+
+
+def _vector(names: Sequence[str], what: str) -> dict[str, Any]:
+    names = [str(n) for n in names]
+    if not names:
+        raise ValueError(f"{what}: at least one name is needed")
+    if len(set(names)) != len(names):
+        raise ValueError(f"{what}: duplicated names {names}")
+    return {"dtype": FLOAT_DTYPE, "shape": (len(names),), "names": names}
+
+
+def dataset_features(
+    state_names: Sequence[str],
+    *,
+    finger_force_names: Sequence[str] | None = None,
+    env_state_names: Sequence[str] | None = None,
+    image_shapes: Mapping[str, tuple[int, int, int]] | None = None,
+    segment_index: bool = False,
+    source_timestamp: bool = False,
+    image_dtype: str = "video",
+) -> dict[str, dict[str, Any]]:
+    """LeRobot ``features`` dict for a force dataset (pass it to ``LeRobotDataset.create``).
+
+    ``state_names``: the full ``observation.state`` names, usually ``layout.state_names(joints)``
+    (joints then ``"gripper"``). ``finger_force_names`` (e.g. ``layout.finger_force_names(3)``) adds
+    ``observation.finger_force``; ``env_state_names`` adds ``observation.environment_state``;
+    ``image_shapes`` maps a camera name to ``(H, W, C)`` and adds ``observation.images.<cam>``
+    with ``image_dtype`` ``"video"`` (mp4) or ``"image"`` (png in parquet). ``segment_index`` adds the
+    int64 ``layout.SEGMENT_INDEX`` column, ``source_timestamp`` the float32 ``layout.SOURCE_TIMESTAMP``
+    (seconds since the source recording's first sample).
+
+    Always present: ``observation.state``, ``observation.ee_pose`` (7), ``observation.force`` (6),
+    ``action`` (8), all float32, names from :mod:`layout`.
+    """
+    features: dict[str, dict[str, Any]] = {
+        layout.OBS_STATE: _vector(state_names, layout.OBS_STATE),
+        layout.OBS_EE_POSE: _vector(layout.EE_POSE_NAMES, layout.OBS_EE_POSE),
+        layout.OBS_FORCE: _vector(layout.FORCE_NAMES, layout.OBS_FORCE),
+    }
+    if finger_force_names is not None:
+        features[layout.OBS_FINGER_FORCE] = _vector(finger_force_names, layout.OBS_FINGER_FORCE)
+    if env_state_names is not None:
+        features[layout.OBS_ENV_STATE] = _vector(env_state_names, layout.OBS_ENV_STATE)
+    if image_dtype not in ("video", "image"):
+        raise ValueError(f"image_dtype must be 'video' or 'image', got {image_dtype!r}")
+    for cam, shape in (image_shapes or {}).items():
+        if not cam or "/" in cam or "." in cam:
+            raise ValueError(f"image_shapes: camera name {cam!r} must be non-empty without '/' or '.'")
+        shape = tuple(int(s) for s in shape)
+        if len(shape) != 3 or shape[2] not in (1, 3) or min(shape) < 1:
+            raise ValueError(f"image_shapes[{cam!r}]: expected (H, W, C) with C in (1, 3), got {shape}")
+        features[layout.OBS_IMAGES_PREFIX + cam] = {
+            "dtype": image_dtype,
+            "shape": shape,
+            "names": ["height", "width", "channels"],
+            "info": {"is_depth_map": shape[2] == 1},
+        }
+    features[layout.ACTION] = _vector(layout.ACTION_NAMES, layout.ACTION)
+    if segment_index:
+        features[layout.SEGMENT_INDEX] = dict(SEGMENT_INDEX_FEATURE)
+    if source_timestamp:
+        features[layout.SOURCE_TIMESTAMP] = dict(SOURCE_TIMESTAMP_FEATURE)
+    return features
+
+
+def numeric_feature_keys(features: Mapping[str, Mapping[str, Any]]) -> list[str]:
+    """Keys of user features stored as numbers (not image/video/string/language, not LeRobot's own)."""
+    return [
+        k
+        for k, ft in features.items()
+        if k not in LEROBOT_AUTO_KEYS and ft["dtype"] not in ("image", "video", "string", "language")
+    ]
+
+
+def _where(episode: int | str | None, frame: int | None) -> str:
+    parts = []
+    if episode is not None:
+        parts.append(f"episode {episode}")
+    if frame is not None:
+        parts.append(f"frame {frame}")
+    return ", ".join(parts) if parts else "frame"
+
+
+def validate_frame(
+    frame: Mapping[str, Any],
+    features: Mapping[str, Mapping[str, Any]],
+    *,
+    episode: int | str | None = None,
+    frame_index: int | None = None,
+    require_task: bool = True,
+) -> None:
+    """Check one ``add_frame`` dict against ``features``; raise ``ValueError`` naming key, episode, frame.
+
+    Checks: every user feature present (LeRobot's automatic columns must be absent), no unknown keys,
+    a ``"task"`` string (when ``require_task``), numeric values of the feature's exact shape, finite
+    (no NaN/inf), castable to the feature dtype; images of shape (H, W, C) or (C, H, W).
+    """
+    where = _where(episode, frame_index)
+    expected = {k for k in features if k not in LEROBOT_AUTO_KEYS}
+    missing = sorted(expected - set(frame))
+    if missing:
+        raise ValueError(f"{where}: missing feature(s) {missing}")
+    unknown = sorted(set(frame) - expected - set(FRAME_EXTRA_KEYS))
+    if unknown:
+        auto = [k for k in unknown if k in LEROBOT_AUTO_KEYS]
+        hint = f" ({auto} are added by LeRobot itself)" if auto else ""
+        raise ValueError(f"{where}: unknown key(s) {unknown} not in the dataset features{hint}")
+    if require_task and not isinstance(frame.get("task"), str):
+        raise ValueError(f"{where}: 'task' must be a str, got {type(frame.get('task')).__name__}")
+    for key in [k for k in features if k in expected]:
+        ft = features[key]
+        value = frame[key]
+        if ft["dtype"] in ("image", "video"):
+            shape = np.shape(value)
+            h, w, c = ft["shape"]
+            if shape not in ((h, w, c), (c, h, w)):
+                raise ValueError(f"{where}: {key!r} has shape {shape}, expected {(h, w, c)} or {(c, h, w)}")
+            continue
+        if ft["dtype"] in ("string", "language"):
+            continue
+        arr = np.asarray(value)
+        if arr.shape != tuple(ft["shape"]):
+            raise ValueError(f"{where}: {key!r} has shape {arr.shape}, expected {tuple(ft['shape'])}")
+        if arr.dtype.kind not in "biuf":
+            raise ValueError(f"{where}: {key!r} has non-numeric dtype {arr.dtype}")
+        if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
+            bad = np.flatnonzero(~np.isfinite(arr.reshape(-1)))
+            names = ft.get("names") or []
+            col = [names[i] if i < len(names) else i for i in bad]
+            raise ValueError(f"{where}: {key!r} is not finite at component(s) {col}")
+        if np.dtype(ft["dtype"]).kind in "iu" and arr.dtype.kind == "f":
+            raise ValueError(f"{where}: {key!r} must be integer ({ft['dtype']}), got {arr.dtype}")
+
+
+def validate_episode_arrays(
+    arrays: Mapping[str, np.ndarray],
+    features: Mapping[str, Mapping[str, Any]],
+    *,
+    episode: int | str | None = None,
+) -> int:
+    """Vectorised check of a whole episode given as ``{key: (T, *shape)}``; returns T.
+
+    Same rules as :func:`validate_frame`; image/video features are ``(T, H, W, C)`` or ``(T, C, H, W)``.
+    The error names the key, the episode and the first bad frame.
+    """
+    where = _where(episode, None)
+    images = [k for k, ft in features.items() if ft["dtype"] in ("image", "video")]
+    expected = {k for k in numeric_feature_keys(features)} | set(images)
+    missing = sorted(expected - set(arrays))
+    if missing:
+        raise ValueError(f"{where}: missing feature(s) {missing}")
+    unknown = sorted(set(arrays) - set(features))
+    if unknown:
+        raise ValueError(f"{where}: unknown key(s) {unknown} not in the dataset features")
+    n_frames: int | None = None
+    for key in [k for k in features if k in expected]:  # features order: state first
+        ft = features[key]
+        arr = np.asarray(arrays[key])
+        shape = tuple(ft["shape"])
+        if key in images:
+            h, w, c = shape
+            if arr.ndim != 4 or arr.shape[1:] not in ((h, w, c), (c, h, w)):
+                raise ValueError(
+                    f"{where}: {key!r} has shape {arr.shape}, expected (T, {h}, {w}, {c}) or (T, {c}, {h}, {w})"
+                )
+            if n_frames is not None and arr.shape[0] != n_frames:
+                raise ValueError(
+                    f"{where}: {key!r} has {arr.shape[0]} frames, other features have {n_frames}"
+                )
+            n_frames = arr.shape[0] if n_frames is None else n_frames
+            continue
+        if arr.ndim >= 1 and shape == (1,) and arr.shape == (arr.shape[0],):
+            arr = arr[:, None]
+        if arr.ndim != len(shape) + 1 or arr.shape[1:] != shape:
+            raise ValueError(
+                f"{where}: {key!r} has shape {arr.shape}, expected (T, {', '.join(map(str, shape))})"
+            )
+        if n_frames is None:
+            n_frames = arr.shape[0]
+        elif arr.shape[0] != n_frames:
+            raise ValueError(f"{where}: {key!r} has {arr.shape[0]} frames, other features have {n_frames}")
+        if arr.dtype.kind not in "biuf":
+            raise ValueError(f"{where}: {key!r} has non-numeric dtype {arr.dtype}")
+        if arr.dtype.kind == "f":
+            finite = np.isfinite(arr.reshape(arr.shape[0], -1))
+            if not finite.all():
+                t, c = np.argwhere(~finite)[0]
+                names = ft.get("names") or []
+                col = names[c] if c < len(names) else c
+                raise ValueError(f"{where}, frame {t}: {key!r} is not finite (component {col!r})")
+            if np.dtype(ft["dtype"]).kind in "iu":
+                raise ValueError(f"{where}: {key!r} must be integer ({ft['dtype']}), got {arr.dtype}")
+    if not n_frames:
+        raise ValueError(f"{where}: empty episode (0 frames)")
+    return int(n_frames)
+
+
+def add_episode(
+    dataset: Any,
+    arrays: Mapping[str, np.ndarray],
+    task: str | Sequence[str],
+    *,
+    episode: int | str | None = None,
+    save: bool = True,
+) -> int:
+    """Validate ``{key: (T, *shape)}`` and append it to a writable ``LeRobotDataset`` as one episode.
+
+    Casts every numeric column to its feature dtype (images go as given: uint8 HWC/CHW), calls ``add_frame`` per frame (LeRobot's only per-frame
+    entry point) and ``save_episode`` when ``save``. ``task``: one string or one per frame. Returns T.
+    """
+    features = dataset.features
+    n = validate_episode_arrays(arrays, features, episode=episode)
+    tasks = [task] * n if isinstance(task, str) else list(task)
+    if len(tasks) != n or not all(isinstance(t, str) and t for t in tasks):
+        raise ValueError(f"{_where(episode, None)}: task must be a non-empty str or {n} of them")
+    cast = {}
+    for key in numeric_feature_keys(features):
+        ft = features[key]
+        arr = np.asarray(arrays[key]).astype(ft["dtype"], copy=False)
+        cast[key] = arr.reshape(n, *ft["shape"])
+    for key, ft in features.items():
+        if ft["dtype"] in ("image", "video"):
+            cast[key] = np.asarray(arrays[key])
+    for i in range(n):
+        dataset.add_frame({**{k: v[i] for k, v in cast.items()}, "task": tasks[i]})
+    if save:
+        dataset.save_episode()
+    return n
+
+
+# ---- dataset card ------------------------------------------------------------------------------------
+
+
+def card_markdown(
+    *,
+    title: str,
+    source: str,
+    robot: str,
+    features: Mapping[str, Mapping[str, Any]] | None = None,
+    units: Mapping[str, str] | None = None,
+    frames: str | None = None,
+    extra: str | Mapping[str, Any] | None = None,
+) -> str:
+    """Markdown body of the dataset card: title, source, robot, a feature table with units, frames."""
+    units = {**layout.UNITS, **(units or {})}
+    lines = [f"# {title}", "", f"**Source:** {source}", "", f"**Robot:** {robot}", ""]
+    if features:
+        lines += ["## Features", "", "| key | dtype | shape | names | units |", "|---|---|---|---|---|"]
+        for key, ft in features.items():
+            names = ft.get("names")
+            names_s = ", ".join(map(str, names)) if isinstance(names, list) else ""
+            shape = "×".join(map(str, ft.get("shape", ())))
+            lines.append(f"| `{key}` | {ft['dtype']} | {shape} | {names_s} | {units.get(key, '')} |")
+        lines.append("")
+    lines += [
+        "## Frames and conventions",
+        "",
+        frames
+        or (
+            "Positions, orientations and the wrist wrench are in the robot base frame. Quaternions are "
+            "scalar first (w x y z). The wrench is the one the environment exerts on the robot, so a "
+            "pressing contact reads as a force pointing away from the surface."
+        ),
+        "",
+        f"Action layout (`{layout.ACTION}`): {' '.join(layout.ACTION_NAMES)} — {layout.UNITS[layout.ACTION]}.",
+        "",
+    ]
+    if extra:
+        lines += ["## Notes", ""]
+        if isinstance(extra, str):
+            lines += [extra, ""]
+        else:
+            lines += [f"- **{k}:** {v}" for k, v in extra.items()] + [""]
+    return "\n".join(lines)
+
+
+def write_dataset_card(
+    root: str | Path,
+    *,
+    title: str,
+    source: str,
+    robot: str,
+    units: Mapping[str, str] | None = None,
+    frames: str | None = None,
+    extra: str | Mapping[str, Any] | None = None,
+    tags: Sequence[str] | None = None,
+    license: str | None = "apache-2.0",
+    repo_id: str | None = None,
+) -> Path:
+    """Write ``<root>/README.md``: LeRobot's card template with our description (units, frames, sources).
+
+    The description is also stored in ``<root>/meta/forcemap_card.json`` so that
+    :func:`lerobot_forcemap.data.hub.push_dataset` pushes the same card to the Hub (LeRobot's
+    ``push_to_hub`` regenerates README.md from the template). Reads ``meta/info.json`` for the features.
+    """
+    root = Path(root)
+    info_path = root / "meta" / "info.json"
+    if not info_path.is_file():
+        raise ValueError(f"{root}: not a LeRobot dataset (no meta/info.json)")
+    info = json.loads(info_path.read_text())
+    features = {k: v for k, v in info["features"].items() if k not in LEROBOT_AUTO_KEYS}
+    description = card_markdown(
+        title=title, source=source, robot=robot, features=features, units=units, frames=frames, extra=extra
+    )
+    card_tags = sorted({"forcemap", "force", "wrench", *(tags or ())})
+    (root / "meta" / "forcemap_card.json").write_text(
+        json.dumps({"dataset_description": description, "tags": card_tags, "license": license}, indent=2)
+    )
+    from lerobot.datasets.io_utils import load_info  # lazy: heavy import
+    from lerobot.datasets.utils import create_lerobot_dataset_card
+
+    card = create_lerobot_dataset_card(
+        tags=card_tags,
+        dataset_info=load_info(root),
+        license=license,
+        repo_id=repo_id,
+        dataset_description=description,
+    )
+    path = root / "README.md"
+    card.save(str(path))
+    return path

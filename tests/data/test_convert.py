@@ -1,0 +1,193 @@
+"""Converters round-trip through LeRobotDataset: frames in == frames out, values == documented transforms."""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from lerobot_forcemap import layout
+from lerobot_forcemap.cli import main as forcemap_main
+from lerobot_forcemap.data.convert import (
+    SOURCES_FILE,
+    convert_gbti,
+    convert_recordings,
+    episode_arrays,
+    resolve_lowpass_hz,
+)
+from lerobot_forcemap.data.recorder import GbtiKey, iter_gbti_demos, read_recording
+from lerobot_forcemap.data.transforms import align_recording
+
+from .synthetic import make_streams, write_gbti_file, write_recorder_file
+
+pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
+
+
+def load(root):
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    return LeRobotDataset("local/test", root=root)
+
+
+def columns(ds, key):
+    return np.asarray(ds.hf_dataset.with_format("numpy")[key])
+
+
+def expected_arrays(rec, fps, finger=False):
+    lowpass = resolve_lowpass_hz("auto", fps, 1.0 / np.median(np.diff(rec.wrench_time)))
+    return episode_arrays(align_recording(rec, fps=fps, force_lowpass_hz=lowpass), finger_force=finger)
+
+
+def check_round_trip(ds, recs, fps, finger=False):
+    """Every frame of every episode equals the documented transforms of its recording (float32)."""
+    ep_index = columns(ds, "episode_index")
+    frame_index = columns(ds, "frame_index")
+    ts = columns(ds, "timestamp")
+    assert ds.meta.fps == fps and ds.meta.total_episodes == len(recs)
+    total = 0
+    for e, rec in enumerate(recs):
+        exp = expected_arrays(rec, fps, finger)
+        rows = np.flatnonzero(ep_index == e)
+        n = len(exp[layout.OBS_STATE])
+        assert len(rows) == n  # frames in == frames out
+        np.testing.assert_array_equal(frame_index[rows], np.arange(n))
+        np.testing.assert_allclose(ts[rows], np.arange(n) / fps, atol=1e-6)
+        for key, arr in exp.items():
+            got = columns(ds, key)[rows].reshape(arr.shape)
+            np.testing.assert_array_equal(got, arr, err_msg=f"{key} episode {e}")  # float32 in, float32 out
+        total += n
+    assert len(ds) == total == ds.meta.total_frames
+
+
+def test_synthetic_round_trip_and_transforms(tmp_path):
+    sts = [make_streams(n=300, rate=100.0, seed=0), make_streams(n=250, rate=100.0, seed=1, gripper=False)]
+    paths = [write_recorder_file(tmp_path / f"press_{i}.h5", st) for i, st in enumerate(sts)]
+    res = convert_recordings(paths, tmp_path / "ds", fps=25, progress=False)
+    assert (res.n_episodes, res.n_frames) == (2, 75 + 63)
+    ds = load(tmp_path / "ds")
+    recs = [read_recording(p) for p in paths]
+    check_round_trip(ds, recs, 25)
+
+    # The documented transforms, checked against the synthetic truth.
+    rows = columns(ds, "episode_index") == 0
+    state = columns(ds, layout.OBS_STATE)[rows]
+    pose = columns(ds, layout.OBS_EE_POSE)[rows]
+    force = columns(ds, layout.OBS_FORCE)[rows]
+    action = columns(ds, layout.ACTION)[rows]
+    src_t = columns(ds, layout.SOURCE_TIMESTAMP)[rows]
+    t = np.arange(len(state)) / 25.0
+    truth_t = np.arange(300) / 100.0
+    for j in range(6):
+        np.testing.assert_allclose(state[:, j], np.interp(t, truth_t, sts[0]["joints"][:, j]), atol=1e-6)
+    np.testing.assert_allclose(state[:, 6], np.interp(t, truth_t, sts[0]["gripper"] / 100.0), atol=1e-6)
+    np.testing.assert_allclose(src_t, t, atol=1e-6)
+    contact = np.interp(t, truth_t, sts[0]["contact"].astype(float)) == 1.0
+    interior = np.flatnonzero(contact)[1:-1]  # the 20 Hz low-pass rounds the step edges
+    np.testing.assert_allclose(force[interior, 2], 20.0, atol=1.0)
+    far = np.convolve(contact, np.ones(5), mode="same") == 0  # >= 3 frames from any contact frame
+    assert np.abs(force[far, :3]).max() < 0.5
+    np.testing.assert_array_equal(action[:-1, :7], pose[1:])  # action = next frame's pose
+    np.testing.assert_array_equal(action[-1, :7], pose[-1])
+    np.testing.assert_array_equal(action[:-1, 7], state[1:, 6])
+    assert np.all(columns(ds, layout.OBS_STATE)[~rows][:, 6] == 0.0)  # no gripper stream -> 0 (open)
+
+    assert ds.meta.features[layout.OBS_STATE]["names"][:3] == list(layout.UR5E_JOINT_NAMES[:3])
+    assert set(ds.meta.tasks.index) == {"press the button"}
+    card = (tmp_path / "ds" / "README.md").read_text()
+    assert "base frame; tared; reaction on the robot" in card and "| `observation.force` |" in card
+    sources = json.loads((tmp_path / "ds" / SOURCES_FILE).read_text())
+    assert [e["tare"]["window"] for e in sources["episodes"]] == ["start", "start"]
+    np.testing.assert_allclose(sources["episodes"][0]["tare"]["force_bias_n"], sts[0]["bias_f"], atol=0.05)
+    assert sources["episodes"][1]["gripper_recorded"] is False and sources["episodes"][1]["warnings"]
+    item = ds[5]  # through LeRobotDataset.__getitem__ as a policy sees it
+    np.testing.assert_allclose(item[layout.OBS_FORCE].numpy(), force[5])
+
+
+def test_real_press_file_round_trip_and_force_up(shared_data, tmp_path):
+    path = shared_data / "ur5e" / "press_2023-07-27_160905.h5"
+    convert_recordings([path], tmp_path / "press", fps=50, progress=False)  # 711 frames
+    ds = load(tmp_path / "press")
+    check_round_trip(ds, [read_recording(path)], 50)
+    force = columns(ds, layout.OBS_FORCE)
+    z = columns(ds, layout.OBS_EE_POSE)[:, 2]
+    press = int(np.argmin(z))
+    i = press - 3 + int(np.argmax(force[press - 3 : press + 4, 2]))
+    # Up, away from the button: 30.7 N at 500 Hz, about 22 N after the 20 Hz anti-alias low-pass.
+    assert 15.0 < force[i, 2] < 35.0 and force[i, 2] > 0.8 * np.linalg.norm(force[i, :3])
+
+
+def test_gbti_subset_via_cli(shared_data, tmp_path):
+    path = shared_data / "gbti" / "Grasping_Demos.h5"
+    keys = ["Cube/User3/Position2", "Mug/User1/Position1"]
+    out = tmp_path / "gbti"
+    rc = forcemap_main(
+        ["convert", str(path), "--gbti", "--gbti-keys", *keys, "--out", str(out), "--fps", "10"]
+    )
+    assert rc == 0
+    ds = load(out)
+    recs = [rec for _, rec in iter_gbti_demos(path, [GbtiKey.parse(k) for k in keys])]
+    check_round_trip(ds, recs, 10, finger=True)
+    assert ds.meta.features[layout.OBS_FINGER_FORCE]["names"] == ["f0"]
+    tasks = columns(ds, "task_index")
+    assert {ds.meta.tasks.index[i] for i in np.unique(tasks)} == {"grasp the cube", "grasp the mug"}
+    sources = json.loads((out / SOURCES_FILE).read_text())["episodes"]
+    assert sources[0]["gbti_key"] == {"object": "Cube", "user": 3, "position": 2}
+    assert sources[0]["source_samples"]["joint"] == 941
+    assert "Cube/User3/Position2" in (out / "README.md").read_text()
+
+
+def test_gbti_synthetic_all_demos(tmp_path):
+    keys = [("Cube", 1, 1), ("Mug", 1, 1), ("Plate", 2, 3)]
+    path = write_gbti_file(tmp_path / "g.h5", keys, n=120)
+    res = convert_gbti(path, tmp_path / "ds", fps=20, progress=False)
+    assert res.n_episodes == 3
+    ds = load(tmp_path / "ds")
+    check_round_trip(ds, [r for _, r in iter_gbti_demos(path)], 20, finger=True)
+
+
+def test_bad_inputs_name_field_episode_and_frame(tmp_path):
+    st = make_streams(n=100)
+    st["joints"][42, 1] = np.nan
+    bad = write_recorder_file(tmp_path / "bad.h5", st)
+    good = write_recorder_file(tmp_path / "good.h5", make_streams(n=100))
+    with pytest.raises(
+        ValueError, match=r"recording 'bad': 'joint_state_info/joint_positions' is not finite .* sample 42"
+    ):
+        convert_recordings([good, bad], tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()  # half-written dataset removed
+
+    # Finger force in the first episode but not in the second.
+    gpath = write_gbti_file(tmp_path / "g.h5", [("Cube", 1, 1)], n=100)
+    from lerobot_forcemap.data.convert import EpisodeSource, convert_episodes
+
+    ((_, grec),) = iter_gbti_demos(gpath)
+    srcs = [EpisodeSource(grec, "grasp", "g"), EpisodeSource(read_recording(good), "press", "good")]
+    with pytest.raises(ValueError, match=r"episode 1 \(good\): finger force missing"):
+        convert_episodes(srcs, tmp_path / "mixed", fps=20, progress=False)
+
+    convert_recordings([good], tmp_path / "exists", fps=20, progress=False)
+    with pytest.raises(ValueError, match="exists"):
+        convert_recordings([good], tmp_path / "exists", fps=20, progress=False)
+    with pytest.raises(ValueError, match="positive integer"):
+        convert_recordings([good], tmp_path / "x", fps=12.5, progress=False)
+    with pytest.raises(ValueError, match="not found"):
+        convert_recordings([tmp_path / "missing.h5"], tmp_path / "y", progress=False)
+
+    # Duplicated timestamps in a file: collapsed with a warning, recorded in the sources file.
+    st = make_streams(n=100)
+    st["t"][10:13] = st["t"][10]
+    dup = write_recorder_file(tmp_path / "dup.h5", st)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = convert_recordings([dup], tmp_path / "dup", fps=20, progress=False)
+    assert any("repeat the previous timestamp" in str(w.message) for w in caught)
+    assert res.episodes[0]["duplicate_timestamps_collapsed"]["joint"] == 2
+    with pytest.raises(ValueError, match=r"stream 'dup/joint': sample 11 repeats the timestamp of sample 10"):
+        convert_recordings([dup], tmp_path / "dup2", fps=20, progress=False, on_duplicate="raise")
+    # ... while a timestamp going backwards is an error naming the stream and sample.
+    st["t"][50] = st["t"][40]
+    back = write_recorder_file(tmp_path / "back.h5", st)
+    with pytest.raises(ValueError, match=r"stream 'back/joint': timestamp goes backwards at sample 50"):
+        convert_recordings([back], tmp_path / "back", fps=20, progress=False)

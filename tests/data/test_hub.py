@@ -1,0 +1,80 @@
+"""Hub push against a mocked HfApi: repo created, folder uploaded with our files, card pushed, v3.0 tagged."""
+
+from __future__ import annotations
+
+from unittest import mock
+
+import pytest
+
+from lerobot_forcemap.data.convert import convert_recordings
+from lerobot_forcemap.data.hub import card_kwargs, push_dataset
+
+from .synthetic import make_streams, write_recorder_file
+
+pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
+
+
+def test_push_dataset_mocked(tmp_path):
+    import huggingface_hub
+
+    root = tmp_path / "ds"
+    convert_recordings(
+        [write_recorder_file(tmp_path / "press_0.h5", make_streams(n=120))], root, fps=20, progress=False
+    )
+    assert "reaction on the robot" in card_kwargs(root)["dataset_description"]
+
+    pushed_cards = []
+
+    def fake_card_push(self, repo_id, **kw):
+        pushed_cards.append((self.content, repo_id, kw))
+
+    with (
+        mock.patch("lerobot.datasets.lerobot_dataset.HfApi") as api_cls,
+        mock.patch.object(
+            huggingface_hub.DatasetCard, "push_to_hub", autospec=True, side_effect=fake_card_push
+        ),
+    ):
+        url = push_dataset(root, "someone/press-demo", private=True, tags=["ur5e"])
+    api = api_cls.return_value
+    assert url == "https://huggingface.co/datasets/someone/press-demo"
+    api.create_repo.assert_called_once_with(
+        repo_id="someone/press-demo", private=True, repo_type="dataset", exist_ok=True
+    )
+
+    api.upload_folder.assert_called_once()
+    up = api.upload_folder.call_args.kwargs
+    assert up["repo_id"] == "someone/press-demo" and up["repo_type"] == "dataset"
+    folder = up["folder_path"]
+    uploaded = {p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file()}
+    assert {
+        "README.md",
+        "meta/info.json",
+        "meta/stats.json",
+        "meta/tasks.parquet",
+        "meta/forcemap_sources.json",
+        "meta/forcemap_card.json",
+        "data/chunk-000/file-000.parquet",
+        "meta/episodes/chunk-000/file-000.parquet",
+    } <= uploaded
+    assert "images/" in up["ignore_patterns"]
+
+    ((content, repo_id, kw),) = pushed_cards
+    assert repo_id == "someone/press-demo" and kw["repo_type"] == "dataset"
+    assert "base frame; tared; reaction on the robot" in content  # our units table made it into the card
+    assert "- ur5e" in content and "- forcemap" in content and "license: apache-2.0" in content
+
+    api.create_tag.assert_called_once()
+    assert api.create_tag.call_args.args == ("someone/press-demo",)
+    assert (
+        api.create_tag.call_args.kwargs["tag"] == "v3.0"
+        and api.create_tag.call_args.kwargs["repo_type"] == "dataset"
+    )
+
+
+def test_push_rejects_bad_input(tmp_path):
+    with pytest.raises(ValueError, match="not a LeRobot dataset"):
+        push_dataset(tmp_path, "a/b")
+    (tmp_path / "meta").mkdir()
+    (tmp_path / "meta" / "info.json").write_text("{}")
+    with pytest.raises(ValueError, match="owner/name"):
+        push_dataset(tmp_path, "just-a-name")

@@ -1,0 +1,148 @@
+"""Reading the lab recorder format and the GBTI file; bad input names the recording, field and sample."""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+
+from lerobot_forcemap.data.recorder import GbtiKey, gbti_keys, iter_gbti_demos, read_recording
+
+from .synthetic import T0_EPOCH, make_streams, write_gbti_file, write_recorder_file
+
+
+def test_synthetic_file_round_trip(tmp_path):
+    st = make_streams(n=120, rate=100.0)
+    rec = read_recording(write_recorder_file(tmp_path / "demo.h5", st))
+    assert rec.name == "demo"
+    np.testing.assert_allclose(rec.joint_time, st["t"], rtol=0, atol=2e-6)  # [sec, nsec] -> s
+    assert rec.joint_time[0] == pytest.approx(T0_EPOCH, abs=1e-6)
+    np.testing.assert_array_equal(rec.joint_positions, st["joints"])
+    np.testing.assert_array_equal(rec.positions, st["pos"])
+    np.testing.assert_allclose(rec.orientations, st["quat"], atol=1e-15)  # x y z w in the file -> w x y z
+    np.testing.assert_array_equal(rec.force_tool, st["force"])
+    np.testing.assert_array_equal(rec.torque_tool, st["torque"])
+    np.testing.assert_array_equal(rec.gripper, st["gripper"])
+    assert rec.finger_force is None and rec.finger_force_time is None
+    assert set(rec.streams) == {"joint", "pose", "wrench", "gripper"}
+
+
+def test_read_from_open_group_without_gripper(tmp_path):
+    st = make_streams(n=50, gripper=False)
+    path = write_recorder_file(tmp_path / "nogrip.h5", st)
+    with h5py.File(path) as f:
+        rec = read_recording(f, name="x")
+    assert rec.name == "x" and rec.gripper is None and "gripper" not in rec.streams
+
+
+@pytest.mark.parametrize(
+    ("skip", "message"),
+    [
+        (("wrench_info",), r"recording 'bad': missing group 'wrench_info'"),
+        (
+            ("transform_info/transform_time",),
+            r"recording 'bad': missing dataset 'transform_info/transform_time'",
+        ),
+        (("joint_state_info/joint_positions",), r"missing dataset 'joint_state_info/joint_positions'"),
+    ],
+)
+def test_missing_parts(tmp_path, skip, message):
+    path = write_recorder_file(tmp_path / "bad.h5", make_streams(n=30), skip=skip)
+    with pytest.raises(ValueError, match=message):
+        read_recording(path)
+
+
+def test_nan_and_shape_errors_name_field_and_sample(tmp_path):
+    st = make_streams(n=30)
+    st["force"][11, 2] = np.nan
+    with pytest.raises(
+        ValueError, match=r"'wrench_info/wrench_force' is not finite \(NaN/inf\) at sample 11"
+    ):
+        read_recording(write_recorder_file(tmp_path / "nan.h5", st))
+    st = make_streams(n=30)
+    st["pos"] = st["pos"][:, :2]
+    with pytest.raises(
+        ValueError, match=r"'transform_info/transform_positions' has shape \(30, 2\), expected \(n, 3\)"
+    ):
+        read_recording(write_recorder_file(tmp_path / "shape.h5", st))
+    st = make_streams(n=30)
+    st["quat"][5] *= 2.0
+    with pytest.raises(ValueError, match="not a unit quaternion at sample 5"):
+        read_recording(write_recorder_file(tmp_path / "quat.h5", st))
+
+
+def test_time_length_mismatch(tmp_path):
+    path = write_recorder_file(tmp_path / "len.h5", make_streams(n=30))
+    with h5py.File(path, "a") as f:
+        t = f["wrench_info/wrench_time"][()]
+        del f["wrench_info/wrench_time"]
+        f["wrench_info/wrench_time"] = t[:-3]
+    with pytest.raises(ValueError, match=r"'wrench_info/wrench_time' has 27 rows but its data has 30"):
+        read_recording(path)
+
+
+def test_gbti_synthetic(tmp_path):
+    keys = [("Mug", 2, 1), ("Cube", 1, 2), ("Cube", 1, 10)]
+    path = write_gbti_file(tmp_path / "g.h5", keys)
+    assert gbti_keys(path) == [
+        GbtiKey("Cube", 1, 2),
+        GbtiKey("Cube", 1, 10),
+        GbtiKey("Mug", 2, 1),
+    ]  # numeric order
+    demos = list(iter_gbti_demos(path))
+    assert [str(k) for k, _ in demos] == [
+        "Cube/User1/Position2",
+        "Cube/User1/Position10",
+        "Mug/User2/Position1",
+    ]
+    key, rec = demos[0]
+    assert rec.name == str(key) and rec.finger_force is not None and rec.gripper is not None
+    assert GbtiKey.parse("/Plate/User4/Position5") == GbtiKey("Plate", 4, 5)
+    with pytest.raises(ValueError, match="missing GBTI demo group 'Plate/User1/Position1'"):
+        list(iter_gbti_demos(path, [GbtiKey("Plate", 1, 1)]))
+
+
+def test_real_press_file(shared_data):
+    rec = read_recording(shared_data / "ur5e" / "press_2023-07-27_160905.h5")
+    assert rec.joint_positions.shape == (7104, 6) and rec.force_tool.shape == (7104, 3)
+    np.testing.assert_allclose(np.linalg.norm(rec.orientations, axis=1), 1.0, atol=1e-12)
+    assert 490 < 1 / np.median(np.diff(rec.wrench_time)) < 510  # this recorder ran at 500 Hz
+    assert rec.gripper is None
+
+
+def test_real_gbti_has_60_demos_with_finger_force(shared_data):
+    path = shared_data / "gbti" / "Grasping_Demos.h5"
+    keys = gbti_keys(path)
+    assert len(keys) == 60
+    assert {k.object for k in keys} == {"Cube", "Mug", "Plate"}
+    assert {k.user for k in keys} == {1, 2, 3, 4} and {k.position for k in keys} == {1, 2, 3, 4, 5}
+    ((key, rec),) = iter_gbti_demos(path, [GbtiKey("Cube", 3, 2)])
+    assert len(rec.joint_time) == 941 and rec.finger_force is not None and len(rec.finger_force) == 941
+
+
+def _ur5e_flange_position(q: np.ndarray) -> np.ndarray:
+    """UR5e forward kinematics (published DH parameters), q (6,) in kinematic order -> flange xyz."""
+    d = (0.1625, 0.0, 0.0, 0.1333, 0.0997, 0.0996)
+    a = (0.0, -0.425, -0.3922, 0.0, 0.0, 0.0)
+    alpha = (np.pi / 2, 0.0, 0.0, np.pi / 2, -np.pi / 2, 0.0)
+    T = np.eye(4)
+    for i in range(6):
+        ct, st, ca, sa = np.cos(q[i]), np.sin(q[i]), np.cos(alpha[i]), np.sin(alpha[i])
+        T = T @ np.array(
+            [
+                [ct, -st * ca, st * sa, a[i] * ct],
+                [st, ct * ca, -ct * sa, a[i] * st],
+                [0, sa, ca, d[i]],
+                [0, 0, 0, 1],
+            ]
+        )
+    return T[:3, 3]
+
+
+@pytest.mark.parametrize("fname", ["press_2023-07-27_160905.h5", "three_button_press.h5"])
+def test_joint_order_is_kinematic(shared_data, fname):
+    """Reordered joints reproduce the recorded flange position by forward kinematics (< 2 mm)."""
+    rec = read_recording(shared_data / "ur5e" / fname)
+    idx = np.linspace(0, len(rec.joint_time) - 1, 15).astype(int)
+    fk = np.array([_ur5e_flange_position(rec.joint_positions[i]) for i in idx])
+    assert np.abs(fk - rec.positions[idx]).max() < 0.002

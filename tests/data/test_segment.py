@@ -1,0 +1,161 @@
+"""Segment write-back: per-frame segment_index and LeRobot subtasks, read back through LeRobotDataset."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from lerobot_forcemap import layout
+from lerobot_forcemap.cli import main as forcemap_main
+from lerobot_forcemap.data.convert import convert_recordings
+from lerobot_forcemap.data.segment import (
+    episode_streams,
+    read_segment_index,
+    read_subtasks,
+    segment_dataset,
+    stream_columns,
+    write_segments,
+)
+from lerobot_forcemap.segmentation import SegmentationConfig
+
+from .synthetic import make_streams, write_recorder_file
+
+pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
+CONFIG = SegmentationConfig(window=10, min_run=5, grace=1)
+FPS = 50
+
+
+@pytest.fixture
+def dataset(tmp_path):
+    paths = [
+        write_recorder_file(tmp_path / f"press_{i}.h5", make_streams(n=300 + 40 * i, seed=i))
+        for i in range(2)
+    ]
+    root = tmp_path / "ds"
+    convert_recordings(paths, root, fps=FPS, progress=False)
+    return root
+
+
+def load(root):
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    return LeRobotDataset("local/test", root=root)
+
+
+def test_round_trip_through_lerobot(dataset):
+    from lerobot.datasets.language import LANGUAGE_EVENTS, LANGUAGE_PERSISTENT
+    from lerobot.datasets.language_render import active_at
+
+    segs = segment_dataset(
+        dataset, weights={"joints": 0.0, "wrist_force": 2.0}, config=CONFIG, progress=False
+    )
+    assert [s.episode_index for s in segs] == [0, 1]
+    assert max(s.n_segments for s in segs) >= 2  # the contact and the gripper step make changepoints
+    ds = load(dataset)
+    assert ds.meta.features[layout.SEGMENT_INDEX]["dtype"] == "int64"
+    assert {LANGUAGE_PERSISTENT, LANGUAGE_EVENTS} <= set(ds.meta.features) and ds.meta.has_language_columns
+    stored = read_segment_index(ds)
+    for s in segs:
+        np.testing.assert_array_equal(stored[s.episode_index], s.changepoints)
+        assert s.changepoints[0] == 0 and s.changepoints[-1] == len(s.labels)
+        rows = read_subtasks(ds, s.episode_index)
+        assert [r["content"] for r in rows] == [f"segment {k} of {s.n_segments}" for k in range(s.n_segments)]
+        np.testing.assert_allclose([r["timestamp"] for r in rows], s.changepoints[:-1] / FPS, atol=1e-6)
+        start = int(ds.meta.episodes[s.episode_index]["dataset_from_index"])
+        for f in range(0, len(s.labels), 7):  # through __getitem__, as training sees frames
+            item = ds[start + f]
+            assert int(item[layout.SEGMENT_INDEX]) == s.labels[f]
+            row = active_at(float(item["timestamp"]), persistent=item[LANGUAGE_PERSISTENT], style="motion")
+            assert row["content"] == f"segment {s.labels[f]} of {s.n_segments}"
+            assert item[LANGUAGE_EVENTS] == []
+    stats = json.loads((dataset / "meta" / "stats.json").read_text())[layout.SEGMENT_INDEX]
+    assert stats["max"] == [max(s.n_segments for s in segs) - 1] and stats["count"] == [len(ds)]
+    # The data the policy reads is untouched.
+    assert ds.meta.total_frames == sum(len(s.labels) for s in segs)
+
+
+def test_styles_coexist_and_rerun_replaces(dataset):
+    write_segments(
+        dataset, {0: np.r_[np.zeros(100, int), np.ones(50, int)], 1: np.zeros(170, int)}, style="motion"
+    )
+    write_segments(dataset, {0: np.r_[np.zeros(30, int), np.ones(120, int)]}, style="subtask")
+    ds = load(dataset)
+    assert [r["timestamp"] for r in read_subtasks(ds, 0, style="motion")] == [0.0, 2.0]
+    assert [r["timestamp"] for r in read_subtasks(ds, 0, style="subtask")] == [0.0, pytest.approx(0.6)]
+    np.testing.assert_array_equal(read_segment_index(ds)[0], [0, 30, 150])  # last write wins per frame
+    write_segments(dataset, {0: np.zeros(150, int)}, style="motion")
+    ds = load(dataset)
+    assert len(read_subtasks(ds, 0, style="motion")) == 1 and len(read_subtasks(ds, 0, style="subtask")) == 2
+
+
+def test_subset_of_episodes_and_new_column(dataset):
+    segs = segment_dataset(dataset, episodes=[1], config=CONFIG, progress=False)
+    ds = load(dataset)
+    idx = read_segment_index(ds)
+    np.testing.assert_array_equal(idx[0], [0, 150])  # not segmented: one segment
+    np.testing.assert_array_equal(idx[1], segs[0].changepoints)
+    assert read_subtasks(ds, 0) == []
+
+
+def test_bad_input(dataset):
+    with pytest.raises(
+        ValueError, match=r"episode 0, frame 40: segment labels must start at 0 and step by 1, got 2"
+    ):
+        write_segments(dataset, {0: np.r_[np.zeros(40, int), np.full(110, 2)]})
+    with pytest.raises(ValueError, match=r"episode 1: 10 labels for 170 frames"):
+        write_segments(dataset, {1: np.zeros(10, int)})
+    with pytest.raises(ValueError, match=r"weight for unknown stream\(s\) \['force'\]"):
+        segment_dataset(dataset, weights={"force": 1.0}, config=CONFIG, progress=False)
+    with pytest.raises(ValueError, match=r"episode\(s\) \[7\] not in the dataset"):
+        segment_dataset(dataset, episodes=[7], config=CONFIG, progress=False)
+    with pytest.raises(ValueError, match="episode 0: .*window"):  # an episode shorter than the window
+        segment_dataset(dataset, config=SegmentationConfig(window=201, min_run=5), progress=False)
+
+
+def test_streams_from_features():
+    from lerobot_forcemap.data.schema import dataset_features
+
+    feats = dataset_features(layout.state_names(layout.UR5E_JOINT_NAMES), finger_force_names=["f0"])
+    cols = stream_columns(feats)
+    assert cols == {
+        "joints": (layout.OBS_STATE, slice(0, 6)),
+        "gripper": (layout.OBS_STATE, slice(6, 7)),
+        "position": (layout.OBS_EE_POSE, layout.EE_POS),
+        "wrist_force": (layout.OBS_FORCE, layout.FORCE_LINEAR),
+        "finger_force": (layout.OBS_FINGER_FORCE, slice(None)),
+    }
+    n = 20
+    columns = {k: np.random.default_rng(0).normal(size=(n, *ft["shape"])) for k, ft in feats.items()}
+    streams = episode_streams(columns, np.arange(n) / 10.0, feats, weights={"gripper": 0.5})
+    by_name = {s.name: s for s in streams}
+    assert by_name["gripper"].values.shape == (n, 1) and by_name["gripper"].weight == 0.5
+    assert by_name["joints"].weight == 1.0 and by_name["wrist_force"].threshold == 0.15
+    np.testing.assert_array_equal(by_name["position"].values, columns[layout.OBS_EE_POSE][:, :3])
+
+
+def test_cli(dataset, capsys):
+    rc = forcemap_main(
+        [
+            "segment",
+            "--dataset",
+            str(dataset),
+            "--weights",
+            "joints=0",
+            "wrist_force=0.35",
+            "--window",
+            "10",
+            "--min-run",
+            "5",
+            "--grace",
+            "1",
+            "--mode",
+            "product",
+        ]
+    )
+    assert rc == 0 and "episode 1:" in capsys.readouterr().out
+    ds = load(dataset)
+    assert set(read_segment_index(ds)) == {0, 1}
+    with pytest.raises(SystemExit, match="name=value"):
+        forcemap_main(["segment", "--dataset", str(dataset), "--weights", "joints"])
