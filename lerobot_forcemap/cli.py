@@ -12,11 +12,20 @@ import sys
 
 # name -> (module, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
-    "record": ("lerobot_forcemap.envs.record", "record scripted demonstrations of a sim task into a LeRobot dataset"),
-    "convert": ("lerobot_forcemap.data.convert", "convert lab-recorder / GBTI h5 files into a LeRobot v3 dataset"),
+    "record": (
+        "lerobot_forcemap.envs.record",
+        "record scripted demonstrations of a sim task into a LeRobot dataset",
+    ),
+    "convert": (
+        "lerobot_forcemap.data.convert",
+        "convert lab-recorder / GBTI h5 files into a LeRobot v3 dataset",
+    ),
     "segment": ("lerobot_forcemap.data.segment", "segment a dataset's episodes and write the segments back"),
     "fit": ("lerobot_forcemap.experiments.fit", "fit a forcemap policy from a dataset and save a checkpoint"),
-    "eval": ("lerobot_forcemap.experiments.evaluate", "evaluate a policy in a sim task, one JSON record per episode"),
+    "eval": (
+        "lerobot_forcemap.experiments.evaluate",
+        "evaluate a policy in a sim task, one JSON record per episode",
+    ),
     "report": ("lerobot_forcemap.experiments.report", "tables and plots from eval records"),
 }
 

@@ -87,7 +87,9 @@ def matrix_to_quat(m: ArrayLike) -> NDArray[np.float64]:
     tr = np.trace(m, axis1=1, axis2=2)
     diag = np.stack([m[:, 0, 0], m[:, 1, 1], m[:, 2, 2]], axis=1)
     # Candidate 4*|component|^2 for w, x, y, z; pick the largest for numerical stability.
-    cand = np.stack([1 + tr, 1 + 2 * diag[:, 0] - tr, 1 + 2 * diag[:, 1] - tr, 1 + 2 * diag[:, 2] - tr], axis=1)
+    cand = np.stack(
+        [1 + tr, 1 + 2 * diag[:, 0] - tr, 1 + 2 * diag[:, 1] - tr, 1 + 2 * diag[:, 2] - tr], axis=1
+    )
     k = np.argmax(cand, axis=1)
     s = np.sqrt(np.maximum(cand[np.arange(len(k)), k], 1e-300)) * 2.0  # = 4|q_k|
     q = np.empty((len(k), 4))

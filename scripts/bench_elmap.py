@@ -45,7 +45,10 @@ def wipe_problem(m: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     t = np.linspace(0.0, 1.0, m)
     s = np.clip((t - 0.2) / 0.6, 0.0, 1.0)
-    x = np.stack([0.3 * s, 0.06 * np.sin(2 * np.pi * s), 0.05 * (np.abs(t - 0.5) > 0.3) * (np.abs(t - 0.5) - 0.3) * 5], axis=1)
+    x = np.stack(
+        [0.3 * s, 0.06 * np.sin(2 * np.pi * s), 0.05 * (np.abs(t - 0.5) > 0.3) * (np.abs(t - 0.5) - 0.3) * 5],
+        axis=1,
+    )
     x += 3e-4 * rng.normal(size=x.shape)
     f = np.zeros_like(x)
     contact = (t > 0.2) & (t < 0.8)
@@ -54,7 +57,9 @@ def wipe_problem(m: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return x, f
 
 
-def cvxpy_fit(x: np.ndarray, f: np.ndarray | None, n_nodes: int, max_iter: int = 50) -> tuple[np.ndarray, int]:
+def cvxpy_fit(
+    x: np.ndarray, f: np.ndarray | None, n_nodes: int, max_iter: int = 50
+) -> tuple[np.ndarray, int]:
     """The authors' EM and M-step (see module docstring), with our force points and weights."""
     import cvxpy as cp
 
@@ -74,7 +79,7 @@ def cvxpy_fit(x: np.ndarray, f: np.ndarray | None, n_nodes: int, max_iter: int =
     labels = None
     var = cp.Variable((size, 1))
     it = 0
-    for it in range(1, max_iter + 1):
+    for it in range(1, max_iter + 1):  # noqa: B007 (it is reported after the loop)
         new = assign_nearest(x, nodes)
         if labels is not None and np.array_equal(new, labels):
             break
@@ -82,7 +87,9 @@ def cvxpy_fit(x: np.ndarray, f: np.ndarray | None, n_nodes: int, max_iter: int =
         W, b = cluster_sums(labels, None, x, n)
         if fp is not None and len(fp):
             tied = labels[fp.source]
-            fw = force_point_weights(fp, tied, nodes, W, delta=DEFAULT_DELTA, stiffness=DEFAULT_STIFFNESS, rho_max=0.75)
+            fw = force_point_weights(
+                fp, tied, nodes, W, delta=DEFAULT_DELTA, stiffness=DEFAULT_STIFFNESS, rho_max=0.75
+            )
             Wf, bf = cluster_sums(tied, fw.weights, fp.points, n)
             W, b = W + Wf, b + bf
         # the authors' dense clustering matrix B (N·d × (M + K)·d) times the stacked data
@@ -134,18 +141,26 @@ def main() -> int:
         x, f = wipe_problem(m)
         forces = f if force else None
         ours_s, fit = median_time(lambda: fit_force_elastic_map(x, forces, n_nodes=n), args.repeats)  # noqa: B023
-        row = dict(M=m, N=n, forces=force, ours_ms=1e3 * ours_s, ours_iter=fit.n_iter, ours_stop=fit.stop_reason)
+        row = dict(
+            M=m, N=n, forces=force, ours_ms=1e3 * ours_s, ours_iter=fit.n_iter, ours_stop=fit.stop_reason
+        )
         if not args.quick or (m == 2730 and n == 100):
             base_s, (_, base_iter) = median_time(lambda: cvxpy_fit(x, forces, n), args.baseline_repeats)  # noqa: B023
             row.update(cvxpy_ms=1e3 * base_s, cvxpy_iter=base_iter, speedup=base_s / ours_s)
         rows.append(row)
 
-    print(f"\nmachine: {platform.machine()}, {os.cpu_count()} cores, OPENBLAS_NUM_THREADS={os.environ['OPENBLAS_NUM_THREADS']}")
+    print(
+        f"\nmachine: {platform.machine()}, {os.cpu_count()} cores, OPENBLAS_NUM_THREADS={os.environ['OPENBLAS_NUM_THREADS']}"
+    )
     print(f"ours: median of {args.repeats} fits; cvxpy + OSQP: median of {args.baseline_repeats}\n")
     print("| M | N | forces | ours (ms) | ours iters (stop) | cvxpy+OSQP (ms) | cvxpy iters | speed-up |")
     print("|---|---|---|---|---|---|---|---|")
     for r in rows:
-        base = f"{r['cvxpy_ms']:.0f} | {r['cvxpy_iter']} | {r['speedup']:.0f}x" if "cvxpy_ms" in r else "– | – | –"
+        base = (
+            f"{r['cvxpy_ms']:.0f} | {r['cvxpy_iter']} | {r['speedup']:.0f}x"
+            if "cvxpy_ms" in r
+            else "– | – | –"
+        )
         print(
             f"| {r['M']} | {r['N']} | {'yes' if r['forces'] else 'no'} | {r['ours_ms']:.2f} | "
             f"{r['ours_iter']} ({r['ours_stop']}) | {base} |"

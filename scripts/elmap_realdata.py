@@ -66,11 +66,18 @@ def node_to_demo(nodes: np.ndarray, demo: np.ndarray) -> np.ndarray:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", default=os.environ.get("FORCEMAP_SHARED_DATA", str(REPO.parent / "shared" / "data")))
+    ap.add_argument(
+        "--data", default=os.environ.get("FORCEMAP_SHARED_DATA", str(REPO.parent / "shared" / "data"))
+    )
     ap.add_argument("--file", default="ur5e/erase_2024-09-09_153311.h5")
     ap.add_argument("--out", default=str(REPO / "results"))
     ap.add_argument("--n-nodes", type=int, default=100)
-    ap.add_argument("--lowpass-hz", type=float, default=5.0, help="zero-phase low-pass of the wrench (SPEC: tared, low-passed)")
+    ap.add_argument(
+        "--lowpass-hz",
+        type=float,
+        default=5.0,
+        help="zero-phase low-pass of the wrench (SPEC: tared, low-passed)",
+    )
     args = ap.parse_args(argv)
 
     path = Path(args.data) / args.file

@@ -12,7 +12,9 @@ def random_quats(n, seed=0):
 def test_matrix_round_trip_and_rotation_agree():
     q = random_quats(200)
     m = g.quat_to_matrix(q)
-    np.testing.assert_allclose(np.einsum("nij,njk->nik", m, np.swapaxes(m, 1, 2)), np.broadcast_to(np.eye(3), m.shape), atol=1e-12)
+    np.testing.assert_allclose(
+        np.einsum("nij,njk->nik", m, np.swapaxes(m, 1, 2)), np.broadcast_to(np.eye(3), m.shape), atol=1e-12
+    )
     q2 = g.matrix_to_quat(m)
     # same rotation up to sign
     np.testing.assert_allclose(np.abs(np.sum(q * q2, axis=1)), 1.0, atol=1e-10)
@@ -23,7 +25,9 @@ def test_matrix_round_trip_and_rotation_agree():
 def test_multiply_composes_rotations():
     a, b = random_quats(50, 2), random_quats(50, 3)
     v = np.random.default_rng(4).normal(size=(50, 3))
-    np.testing.assert_allclose(g.quat_rotate(g.quat_multiply(a, b), v), g.quat_rotate(a, g.quat_rotate(b, v)), atol=1e-12)
+    np.testing.assert_allclose(
+        g.quat_rotate(g.quat_multiply(a, b), v), g.quat_rotate(a, g.quat_rotate(b, v)), atol=1e-12
+    )
 
 
 def test_rotvec_round_trip():

@@ -86,7 +86,9 @@ def resolve_constraints(
     Conflicting equalities on the same node raise ``ValueError`` (an infeasible set).
     """
     if constraints is None:
-        return ResolvedConstraints(n_nodes, dim, fixed_value=np.zeros((0, dim)), halfspace_normals=np.zeros((0, dim)))
+        return ResolvedConstraints(
+            n_nodes, dim, fixed_value=np.zeros((0, dim)), halfspace_normals=np.zeros((0, dim))
+        )
     if not isinstance(constraints, Constraints):
         raise ValueError(f"constraints: expected a Constraints instance, got {type(constraints).__name__}")
 
@@ -108,7 +110,9 @@ def resolve_constraints(
         try:
             key, value = item
         except (TypeError, ValueError):
-            raise ValueError(f"constraints.via[{k}]: expected a (node_index_or_time_fraction, point) pair") from None
+            raise ValueError(
+                f"constraints.via[{k}]: expected a (node_index_or_time_fraction, point) pair"
+            ) from None
         if isinstance(key, bool):
             raise ValueError(f"constraints.via[{k}]: key must be an int node index or a float time fraction")
         if isinstance(key, (int, np.integer)):
@@ -139,12 +143,16 @@ def resolve_constraints(
         box_lo = np.asarray(lo, dtype=float).reshape(-1)
         box_hi = np.asarray(hi, dtype=float).reshape(-1)
         if box_lo.shape != (dim,) or box_hi.shape != (dim,):
-            raise ValueError(f"constraints.box: lo and hi must have shape ({dim},), got {box_lo.shape}, {box_hi.shape}")
+            raise ValueError(
+                f"constraints.box: lo and hi must have shape ({dim},), got {box_lo.shape}, {box_hi.shape}"
+            )
         if np.any(np.isnan(box_lo)) or np.any(np.isnan(box_hi)):
             raise ValueError("constraints.box: NaN bound")
         if np.any(box_lo > box_hi):
             bad = int(np.argmax(box_lo > box_hi))
-            raise ValueError(f"constraints.box: lo[{bad}]={box_lo[bad]} > hi[{bad}]={box_hi[bad]}; infeasible")
+            raise ValueError(
+                f"constraints.box: lo[{bad}]={box_lo[bad]} > hi[{bad}]={box_hi[bad]}; infeasible"
+            )
         outside = (fixed_value < box_lo - 1e-12) | (fixed_value > box_hi + 1e-12)
         if outside.any():
             row = int(np.argmax(outside.any(axis=1)))
@@ -177,7 +185,9 @@ def resolve_constraints(
     if max_step is not None:
         max_step = float(max_step)
         if not (np.isfinite(max_step) and max_step > 0):
-            raise ValueError(f"constraints.max_step: must be a positive finite length, got {constraints.max_step}")
+            raise ValueError(
+                f"constraints.max_step: must be a positive finite length, got {constraints.max_step}"
+            )
 
     return ResolvedConstraints(
         n_nodes=n_nodes,

@@ -224,7 +224,9 @@ def _check_finite(arrays: Sequence[Array], name: str) -> None:
         bad = ~np.isfinite(a)
         if bad.any():
             t, q = np.argwhere(bad)[0] if a.ndim == 2 else (np.argwhere(bad)[0][0], 0)
-            raise ValueError(f"{name}[{k}]: non-finite value {a[t, q] if a.ndim == 2 else a[t]} at frame {t}, axis {q}")
+            raise ValueError(
+                f"{name}[{k}]: non-finite value {a[t, q] if a.ndim == 2 else a[t]} at frame {t}, axis {q}"
+            )
 
 
 def _check_scalar(name: str, value: float, *, low: float = 0.0, strict: bool = False) -> float:
@@ -318,7 +320,9 @@ def fit_force_elastic_map(
         for k, a in enumerate(arrs):
             want = (lengths[k], width if width is not None else a.shape[1])
             if a.shape != want:
-                raise ValueError(f"{name}[{k}]: shape {a.shape} does not match positions[{k}] (expected {want})")
+                raise ValueError(
+                    f"{name}[{k}]: shape {a.shape} does not match positions[{k}] (expected {want})"
+                )
         _check_finite(arrs, name)
         return arrs
 
@@ -338,7 +342,9 @@ def fit_force_elastic_map(
         for k, t in enumerate(time_list):
             back = np.flatnonzero(np.diff(t) < 0)
             if len(back):
-                raise ValueError(f"times[{k}]: decreasing at frame {back[0] + 1} ({t[back[0]]} -> {t[back[0] + 1]})")
+                raise ValueError(
+                    f"times[{k}]: decreasing at frame {back[0] + 1} ({t[back[0]]} -> {t[back[0] + 1]})"
+                )
             if t[-1] <= t[0]:
                 raise ValueError(f"times[{k}]: the demo has zero duration")
     else:
@@ -349,7 +355,9 @@ def fit_force_elastic_map(
         for k, q in enumerate(quat_list):
             norms = np.linalg.norm(q, axis=1)
             if np.any(norms < 1e-9):
-                raise ValueError(f"orientations[{k}]: zero quaternion at frame {int(np.argmax(norms < 1e-9))}")
+                raise ValueError(
+                    f"orientations[{k}]: zero quaternion at frame {int(np.argmax(norms < 1e-9))}"
+                )
 
     # ---- stack the data
     x = np.concatenate(demos, axis=0)
@@ -357,7 +365,11 @@ def fit_force_elastic_map(
     f = np.concatenate(force_list, axis=0) if force_list is not None else None
     norm_times = [(t - t[0]) / (t[-1] - t[0]) for t in time_list]
     u = np.concatenate(norm_times)
-    duration = float(np.mean([t[-1] - t[0] for t in time_list])) if times is not None else float(np.mean(lengths) - 1)
+    duration = (
+        float(np.mean([t[-1] - t[0] for t in time_list]))
+        if times is not None
+        else float(np.mean(lengths) - 1)
+    )
     S = float(np.sum(np.linalg.norm(w, axis=1)))
     scale = max(float(np.max(np.ptp(x, axis=0))), 1e-12)
 
@@ -377,7 +389,9 @@ def fit_force_elastic_map(
         y[rc.fixed_index] = rc.fixed_value
     use_clarabel = solver == "clarabel" or rc.has_inequalities or force_limit is not None
     if solver == "banded" and use_clarabel:
-        raise ValueError("solver: 'banded' cannot handle inequality constraints or force_limit; use 'auto' or 'clarabel'")
+        raise ValueError(
+            "solver: 'banded' cannot handle inequality constraints or force_limit; use 'auto' or 'clarabel'"
+        )
 
     fp: ForcePoints | None = None
     if f is not None:
@@ -393,7 +407,9 @@ def fit_force_elastic_map(
         fn = np.linalg.norm(f, axis=1)
         limit_src = np.flatnonzero(fn > force_limit)
         limit_normal = f[limit_src] / fn[limit_src, None]
-        limit_lower = np.einsum("ij,ij->i", limit_normal, x[limit_src]) + (fn[limit_src] - force_limit) / stiffness
+        limit_lower = (
+            np.einsum("ij,ij->i", limit_normal, x[limit_src]) + (fn[limit_src] - force_limit) / stiffness
+        )
 
     # ---- EM
     labels_hist: list[NDArray[np.intp]] = []
@@ -409,7 +425,7 @@ def fit_force_elastic_map(
     assigner = NearestNodeAssigner(x)
     unit_weights = weights is None
     banded = None if use_clarabel else BandedMStep(n_nodes, dim, lam, mu, rc.fixed_index, rc.fixed_value)
-    for it in range(1, max_iter + 1):
+    for it in range(1, max_iter + 1):  # noqa: B007 (it is reported after the loop)
         labels = assigner(y)
         if not labels_hist or not np.array_equal(labels, labels_hist[-1]):
             W_demo, b_demo = cluster_sums(labels, None if unit_weights else w, x, n_nodes)
@@ -445,13 +461,18 @@ def fit_force_elastic_map(
             break
         # The energy test is the fallback for assignments that keep changing; with an unchanged
         # assignment only the spring lengths still move, and that iteration contracts to xtol.
-        if not same and len(history) >= 2 and abs(history[-1] - history[-2]) <= tol * max(abs(history[-2]), 1e-300):
+        if (
+            not same
+            and len(history) >= 2
+            and abs(history[-1] - history[-2]) <= tol * max(abs(history[-2]), 1e-300)
+        ):
             reason = "energy_tol"
             break
         # A limit cycle: the last two assignments both repeat those p >= 2 iterations earlier.
         hashes.append(hash(labels.tobytes()))
         if not same and any(
-            hashes[-1] == hashes[-1 - p] and hashes[-2] == hashes[-2 - p] for p in range(2, min(9, len(hashes) - 1))
+            hashes[-1] == hashes[-1 - p] and hashes[-2] == hashes[-2 - p]
+            for p in range(2, min(9, len(hashes) - 1))
         ):
             reason = "cycle"
             break

@@ -202,7 +202,9 @@ class BandedMStep:
             # previous nodes picks the solution nearest to them.
             ridge = 1e-10 * max(float(np.max(ab[0])), 1e-300)
             ab[0] += ridge
-            sol = scipy.linalg.solveh_banded(ab, rhs_flat + ridge * y[F].T.reshape(-1), lower=True, check_finite=False)
+            sol = scipy.linalg.solveh_banded(
+                ab, rhs_flat + ridge * y[F].T.reshape(-1), lower=True, check_finite=False
+            )
         y[F] = sol.reshape(d, nf).T
         return y
 
@@ -258,7 +260,10 @@ def solve_m_step_clarabel(
         off2[:, :-2] = s2
     # Clarabel minimises ½ γᵀPγ + qᵀγ: P = 2·A (upper triangle), q = −2·W b / S.
     P = sp.diags(
-        [2 * diag, 2 * off1.reshape(-1)[:-1], 2 * off2.reshape(-1)[:-2]], [0, 1, 2], shape=(nv, nv), format="csc"
+        [2 * diag, 2 * off1.reshape(-1)[:-1], 2 * off2.reshape(-1)[:-2]],
+        [0, 1, 2],
+        shape=(nv, nv),
+        format="csc",
     )
     q = -2.0 * (W * b / S).T.reshape(-1)
 

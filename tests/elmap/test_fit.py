@@ -14,7 +14,6 @@ from lerobot_forcemap.elmap import (
     make_force_points,
     resolve_constraints,
     solve_m_step_banded,
-    solve_m_step_clarabel,
 )
 from lerobot_forcemap.elmap.fit import NearestNodeAssigner
 
@@ -37,7 +36,9 @@ def test_zero_delta_or_zero_force_gives_the_plain_fit_exactly():
     np.testing.assert_array_equal(fit_force_elastic_map(x, f, n_nodes=60, delta=0.0).nodes, plain.nodes)
     np.testing.assert_array_equal(fit_force_elastic_map(x, np.zeros_like(x), n_nodes=60).nodes, plain.nodes)
     # and below the contact threshold forces are ignored as well
-    np.testing.assert_array_equal(fit_force_elastic_map(x, 0.5 * np.ones_like(x) / np.sqrt(3), n_nodes=60).nodes, plain.nodes)
+    np.testing.assert_array_equal(
+        fit_force_elastic_map(x, 0.5 * np.ones_like(x) / np.sqrt(3), n_nodes=60).nodes, plain.nodes
+    )
 
 
 def test_zero_force_axis_is_unchanged_in_the_m_step():
@@ -87,7 +88,9 @@ def test_returned_nodes_are_a_fixed_point_of_em(with_force):
     W, b = cluster_sums(labels, None, x, 50)
     if with_force:
         fp = make_force_points(x, f, 0.01, 2.0)
-        fw = force_point_weights(fp, labels[fp.source], fit.nodes, W, delta=0.01, stiffness=5000.0, rho_max=0.75)
+        fw = force_point_weights(
+            fp, labels[fp.source], fit.nodes, W, delta=0.01, stiffness=5000.0, rho_max=0.75
+        )
         Wf, bf = cluster_sums(labels[fp.source], fw.weights, fp.points, 50)
         W, b = W + Wf, b + bf
     again = solve_m_step_banded(W, b, len(x) * np.sqrt(3), 0.01, 0.01)
@@ -110,7 +113,9 @@ def test_bounded_assigner_matches_brute_force():
 def test_banded_and_clarabel_agree_with_equality_constraints():
     x = s_curve(n=500, seed=2)
     f = contact_forces(x, 150, 350, 20.0)
-    cons = Constraints(start=[0.0, 0.01, 0.0], end=[0.31, 0.0, 0.03], via=[(0.5, [0.15, 0.0, 0.01]), (10, [0.03, 0.03, 0.0])])
+    cons = Constraints(
+        start=[0.0, 0.01, 0.0], end=[0.31, 0.0, 0.03], via=[(0.5, [0.15, 0.0, 0.01]), (10, [0.03, 0.03, 0.0])]
+    )
     kw = dict(n_nodes=40, constraints=cons, stiffness=5000.0)
     banded = fit_force_elastic_map(x, f, solver="banded", **kw)
     clar = fit_force_elastic_map(x, f, solver="clarabel", **kw)
@@ -162,9 +167,13 @@ def test_force_limit_keeps_nodes_behind_the_contact():
 def test_infeasible_constraints_raise_naming_constraints():
     x = line_demo(n=100)
     with pytest.raises(ValueError, match="constraints"):
-        fit_force_elastic_map(x, n_nodes=10, constraints=Constraints(start=[0, 0, 0], box=([0.1, -1, -1], [1, 1, 1])))
+        fit_force_elastic_map(
+            x, n_nodes=10, constraints=Constraints(start=[0, 0, 0], box=([0.1, -1, -1], [1, 1, 1]))
+        )
     with pytest.raises(ValueError, match="constraints"):
-        fit_force_elastic_map(x, n_nodes=10, constraints=Constraints(halfspaces=[([1, 0, 0], -1.0), ([-1, 0, 0], -1.0)]))
+        fit_force_elastic_map(
+            x, n_nodes=10, constraints=Constraints(halfspaces=[([1, 0, 0], -1.0), ([-1, 0, 0], -1.0)])
+        )
     with pytest.raises(ValueError, match="constraints"):
         fit_force_elastic_map(x, n_nodes=10, constraints=Constraints(start=[0, 0, 0], via=[(0, [1, 0, 0])]))
 

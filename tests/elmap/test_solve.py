@@ -99,6 +99,8 @@ def test_clarabel_inequalities_hold():
 def test_clarabel_reports_infeasible_constraints():
     n, d = 10, 1
     W, b, S = random_problem(n, d, seed=11, empty=0.0)
-    rc = resolve_constraints(Constraints(halfspaces=[([1.0], -1.0), ([-1.0], -1.0)]), n, d)  # y <= -1 and y >= 1
+    rc = resolve_constraints(
+        Constraints(halfspaces=[([1.0], -1.0), ([-1.0], -1.0)]), n, d
+    )  # y <= -1 and y >= 1
     with pytest.raises(ValueError, match="constraints"):
         solve_m_step_clarabel(W, b, S, 0.1, 0.01, rc)

@@ -58,7 +58,11 @@ def test_isolated_node_law_in_the_full_fit(r):
     k, delta = 1000.0, 0.01
     F = r / (1 - r) * k * delta
     for spread in (True, False):
-        x = blobs_flat_in_z() if spread else np.repeat(np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]), 50, axis=0)
+        x = (
+            blobs_flat_in_z()
+            if spread
+            else np.repeat(np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]), 50, axis=0)
+        )
         forces = np.zeros_like(x)
         forces[50:100, 2] = F
         fit = fit_force_elastic_map(
@@ -71,7 +75,9 @@ def test_isolated_node_law_in_the_full_fit(r):
         w = F / (k * np.maximum(np.linalg.norm(p - y, axis=1), delta))  # |w_z| of each force point
         r_fit = w.sum() / 50
         pbar = (w[:, None] * p).sum(axis=0) / w.sum()
-        np.testing.assert_allclose(y[2], xbar[2] + r_fit / (1 - r_fit) * (xbar[2] - pbar[2]), rtol=0, atol=1e-8)
+        np.testing.assert_allclose(
+            y[2], xbar[2] + r_fit / (1 - r_fit) * (xbar[2] - pbar[2]), rtol=0, atol=1e-8
+        )
         np.testing.assert_allclose(y[:2], xbar[:2], atol=1e-12)  # no force on x, y
         if not spread:
             np.testing.assert_allclose(r_fit, r, rtol=0, atol=1e-8)
