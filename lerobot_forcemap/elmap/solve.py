@@ -20,9 +20,9 @@ from dataclasses import dataclass
 
 import clarabel
 import numpy as np
-import scipy.linalg
 import scipy.sparse as sp
 from numpy.typing import NDArray
+from scipy.linalg import lapack
 
 from .constraints import ResolvedConstraints
 
@@ -195,16 +195,19 @@ class BandedMStep:
         ab = self.ab.copy()
         ab[0] = diag_f.T.reshape(-1)
         rhs_flat = rhs_f.T.reshape(-1)
-        try:
-            sol = scipy.linalg.solveh_banded(ab, rhs_flat, lower=True, check_finite=False)
-        except np.linalg.LinAlgError:
+        # LAPACK pbsv directly: scipy's solveh_banded wrapper costs more than the O(N) solve itself
+        _, sol, info = lapack.dpbsv(ab, rhs_flat, lower=1)
+        if info != 0:
             # Semi-definite (e.g. λ = 0 and a single non-empty cluster): a tiny ridge towards the
             # previous nodes picks the solution nearest to them.
             ridge = 1e-10 * max(float(np.max(ab[0])), 1e-300)
-            ab[0] += ridge
-            sol = scipy.linalg.solveh_banded(
-                ab, rhs_flat + ridge * y[F].T.reshape(-1), lower=True, check_finite=False
-            )
+            ab = self.ab.copy()
+            ab[0] = diag_f.T.reshape(-1) + ridge
+            _, sol, info = lapack.dpbsv(ab, rhs_flat + ridge * y[F].T.reshape(-1), lower=1)
+            if info != 0:
+                raise np.linalg.LinAlgError(
+                    f"banded M-step: matrix not positive definite (LAPACK info {info})"
+                )
         y[F] = sol.reshape(d, nf).T
         return y
 
