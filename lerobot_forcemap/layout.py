@@ -103,3 +103,21 @@ def finger_force_names(n_fingers: int, axes: str = "xyz") -> tuple[str, ...]:
     if not axes:
         return tuple(f"f{i}" for i in range(n_fingers))
     return tuple(f"f{i}{a}" for i in range(n_fingers) for a in axes)
+
+
+# ---- robots ------------------------------------------------------------------------------------------
+# UR5e joints in kinematic-chain order (base to flange). The lab recorder's h5 files store ROS
+# /joint_states order (alphabetical: elbow, shoulder_lift, shoulder_pan, wrist_1..3); the converters
+# reorder to this (checked with UR5e forward kinematics against the recorded tool position, < 1 mm).
+UR5E_JOINT_NAMES: Final = ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
+
+# ---- simulated recordings (envs) --------------------------------------------------------------------
+# Per-frame ground truth written by `forcemap record` next to the observations. Not under
+# `observation.`, so LeRobot's policy feature typing ignores them (they are not policy inputs).
+# CONTACT_FORCE: the env's low-passed summed contact force (N, base frame, reaction on the robot) at the
+# frame's time — the signal behind info["max_contact_force"]/["mean_contact_force"].
+CONTACT_FORCE: Final = "contact_force"
+CONTACT_FORCE_NAMES: Final = ("fx", "fy", "fz")
+# DEMO_PHASE: index of the scripted demonstrator's phase (ground-truth segments; the phase names are in
+# the dataset card and meta/forcemap_episodes.json).
+DEMO_PHASE: Final = "demo_phase"

@@ -1,0 +1,458 @@
+"""``ForceTaskEnv``: the gymnasium env shared by every robot and task.
+
+One control step (``1 / task.control_hz`` s, default 20 Hz):
+
+1. the action ``[x y z qw qx qy qz gripper]`` (base frame, ``lerobot_forcemap.layout``) is checked
+   (shape, finite), its quaternion normalised, and the target clipped to the task's workspace box and
+   speed limit — every clip is reported in ``info`` (``target_clipped``, ``clip_*``);
+2. the target is interpolated per physics step (linear + slerp) and moved along by the impedance
+   controller's mocap body; MuJoCo computes the impedance wrench at each 2 ms step;
+3. after the block of physics steps, the wrist wrench is tared, low-passed and rotated to the base
+   frame (``force`` observation); the contact sensors' summed force (environment on robot, base frame)
+   is low-passed the same way and feeds the protective stop and the contact-force statistics;
+4. a protective stop (filtered contact force above ``task.force_limit``, or a fingertip force above
+   ``task.finger_force_limit``) rewinds the physics to the physics step where the limit was crossed
+   (the arm stops there) and terminates the episode as a failure;
+5. the task updates its bookkeeping and decides success (terminate, ``is_success``) or failure.
+
+``info`` always has: ``is_success``, ``protective_stop``, ``termination_reason``, ``max_contact_force`` /
+``mean_contact_force`` (N, norm over the episode so far), ``max_contact_force_xyz`` /
+``mean_contact_force_xyz`` (N, per base axis, of absolute values), ``contact_force`` (N, now),
+clip reports, and the task's metrics. Forces are sampled at physics rate after a first-order low-pass
+(``force_cutoff_hz``, default 10 Hz) — raw contact transients of a few ms are not "forces felt".
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+from gymnasium import spaces
+
+from ..geometry import quat_to_matrix
+from ..layout import (
+    ACTION_DIM,
+    EE_POSE_NAMES,
+    ENV_AGENT_POS,
+    ENV_EE_POSE,
+    ENV_FINGER_FORCE,
+    ENV_FORCE,
+    ENV_PIXELS,
+    ENV_STATE,
+    FORCE_NAMES,
+    finger_force_names,
+    state_names,
+)
+from .control import ClipReport, clip_target, interpolate_targets, set_impedance_damping, solve_ik
+from .robots import RobotSpec, get_robot
+from .scene import CAMERA, BaseFrame, SceneConfig, build_scene, index_scene
+from .sensing import ForceStats, LowPass, Payload, reaction_wrench_base
+from .tasks.base import ForceTask, StartState, StepBlock, TaskStatus
+
+OBS_TYPES = ("state", "pixels_state")
+# LeRobot's rollout passes this reset option (lerobot.envs.utils.NEW_ROLLOUT_OPTION); accepted and ignored.
+_ACCEPTED_RESET_OPTIONS = {"lerobot_new_rollout"}
+
+
+class ForceTaskEnv(gym.Env):
+    """Gymnasium env for one :class:`ForceTask` on one robot (see the module docstring)."""
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 20}
+    task_class: ClassVar[type[ForceTask]]
+
+    def __init__(
+        self,
+        *,
+        obs_type: str = "state",
+        render_mode: str | None = "rgb_array",
+        image_size: int = 128,
+        render_size: int = 256,
+        robot: str | None = None,
+        force_cutoff_hz: float = 10.0,
+        randomize: bool = True,
+        settle_seconds: float = 0.3,
+    ):
+        if obs_type not in OBS_TYPES:
+            raise ValueError(f"obs_type must be one of {OBS_TYPES}, got {obs_type!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}"
+            )
+        self.obs_type = obs_type
+        self.render_mode = render_mode
+        self.image_size = int(image_size)
+        self.render_size = int(render_size)
+        self.robot: RobotSpec = get_robot(robot or self.task_class.robot_name)
+        self.task_impl: ForceTask = self.task_class(self.robot, randomize=randomize)
+        self.scene_config = SceneConfig(
+            render_width=max(self.render_size, self.image_size),
+            render_height=max(self.render_size, self.image_size),
+        )
+        self.frame = BaseFrame.from_config(self.scene_config)
+        t = self.task_impl
+        self.gains = t.gains()
+        self.spec = build_scene(
+            self.robot,
+            t.add_objects,
+            t.contacts(),
+            tool=t.tool(),
+            gains=self.gains,
+            config=self.scene_config,
+            extra_sensors=t.add_sensors,
+        )
+        self.model = self.spec.compile()
+        self.data = mujoco.MjData(self.model)
+        self._scratch = mujoco.MjData(self.model)
+        self.index = index_scene(self.model, self.robot, t.sensor_names)
+        t.bind(self.model, self.index, self.frame)
+
+        self.timestep = float(self.model.opt.timestep)
+        self.control_dt = 1.0 / t.control_hz
+        self.n_substeps = int(round(self.control_dt / self.timestep))
+        if abs(self.n_substeps * self.timestep - self.control_dt) > 1e-9:
+            raise ValueError(
+                f"control period {self.control_dt} s is not a multiple of the timestep {self.timestep} s"
+            )
+        self.metadata = {**self.metadata, "render_fps": int(round(t.control_hz))}  # an int: PyAV needs one
+        self.settle_steps = max(2, int(round(settle_seconds / self.timestep)))
+        self.force_cutoff_hz = force_cutoff_hz
+
+        ix = self.index
+        self._n_fingers = len(ix.finger_sensors)
+        self._state_size = mujoco.mj_stateSize(self.model, mujoco.mjtState.mjSTATE_INTEGRATION)
+        self._saved_state = np.empty(self._state_size)
+        self._buf = np.empty((self.n_substeps, self.model.nsensordata))
+        self._wrench_cols = np.r_[
+            ix.wrist_force.start : ix.wrist_force.stop, ix.wrist_torque.start : ix.wrist_torque.stop
+        ]
+        self._contact_cols = ix.contact_columns
+        self._finger_cols = (
+            np.concatenate([np.arange(s.start, s.stop) for s in ix.finger_sensors])
+            if self._n_fingers
+            else np.zeros(0, int)
+        )
+        # cached views into MjData (stable for the data's lifetime)
+        self._mocap_pos = self.data.mocap_pos
+        self._mocap_quat = self.data.mocap_quat
+        self._sensordata = self.data.sensordata
+        self._base_rot_inv = None if self.frame.is_identity else quat_to_matrix(self.frame.quat).T
+        self._tool_ref_quat = np.asarray(self.robot.tool_down_quat, dtype=float)
+
+        self.state_names: dict[str, tuple[str, ...]] = {
+            ENV_AGENT_POS: state_names(self.robot.joint_names),
+            ENV_EE_POSE: tuple(EE_POSE_NAMES),
+            ENV_FORCE: tuple(FORCE_NAMES),
+            ENV_STATE: tuple(t.state_names),
+        }
+        if self._n_fingers:
+            self.state_names[ENV_FINGER_FORCE] = finger_force_names(self._n_fingers)
+        obs_spaces: dict[str, spaces.Space] = {
+            key: spaces.Box(-np.inf, np.inf, shape=(len(names),), dtype=np.float32)
+            for key, names in self.state_names.items()
+        }
+        if obs_type == "pixels_state":
+            obs_spaces[ENV_PIXELS] = spaces.Dict(
+                {CAMERA: spaces.Box(0, 255, shape=(self.image_size, self.image_size, 3), dtype=np.uint8)}
+            )
+        self.observation_space = spaces.Dict(obs_spaces)
+        ws = t.workspace
+        self.action_space = spaces.Box(
+            low=np.array([*ws.low, -1, -1, -1, -1, 0], dtype=np.float32),
+            high=np.array([*ws.high, 1, 1, 1, 1, 1], dtype=np.float32),
+            dtype=np.float32,
+        )
+        assert self.action_space.shape == (ACTION_DIM,)
+        self._renderers: dict[int, mujoco.Renderer] = {}
+        self._episode_started = False
+
+    # ---- LeRobot rollout contract ---------------------------------------------------------------------
+    @property
+    def task_description(self) -> str:
+        return self.task_class.description
+
+    @property
+    def task(self) -> str:
+        return self.task_class.description
+
+    # ---- reset -------------------------------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        unknown = set(options or {}) - _ACCEPTED_RESET_OPTIONS
+        if unknown:
+            raise ValueError(
+                f"reset: unknown options {sorted(unknown)}; accepted: {sorted(_ACCEPTED_RESET_OPTIONS)}"
+            )
+        m, d, ix, t = self.model, self.data, self.index, self.task_impl
+        mujoco.mj_resetData(m, d)
+        start: StartState = t.reset(m, d, self.np_random)
+        pos_w = self.frame.pos_to_world(np.asarray(start.tcp_pos, float))
+        quat_w = self.frame.quat_to_world(np.asarray(start.tcp_quat, float))
+        ik = solve_ik(
+            m,
+            self._scratch,
+            ix.tcp_site,
+            ix.arm_qpos,
+            ix.arm_dof,
+            pos_w,
+            quat_w,
+            np.asarray(self.robot.home_qpos),
+        )
+        if not ik.converged:
+            raise RuntimeError(
+                f"{t.name}: start pose {start.tcp_pos} unreachable (IK error {ik.position_error:.4f} m, "
+                f"{ik.orientation_error:.4f} rad)"
+            )
+        d.qpos[ix.arm_qpos] = ik.qpos
+        closure = start.gripper if start.gripper_closure is None else start.gripper_closure
+        d.qpos[ix.gripper_qpos] = self.robot.gripper.closure_qpos(closure)
+        mujoco.mj_forward(m, d)
+        self._mocap_pos[ix.mocap] = pos_w
+        self._mocap_quat[ix.mocap] = quat_w
+        lo, hi = ix.gripper_ctrlrange
+        d.ctrl[ix.gripper_actuator] = lo + float(np.clip(start.gripper, 0, 1)) * (hi - lo)
+        self.damping = set_impedance_damping(
+            m, d, ix.impedance_actuators, ix.tcp_site, ix.arm_dof, self.gains
+        )
+
+        t.before_settle(m, d)
+        half = self.settle_steps // 2
+        for _ in range(half):
+            mujoco.mj_step(m, d)
+        t.after_settle(m, d)
+        n_tail = self.settle_steps - half
+        tail = np.empty((n_tail, m.nsensordata))
+        for i in range(n_tail):
+            mujoco.mj_step(m, d)
+            tail[i] = self._sensordata
+        self._tare(tail[-min(25, n_tail) :])
+
+        self._prev_pos = np.asarray(start.tcp_pos, float).copy()
+        self._prev_quat = self._align(np.asarray(start.tcp_quat, float))
+        self._prev_pos_w = pos_w.copy()
+        self._prev_quat_w = quat_w.copy()
+        self._wrench_filter = LowPass(self.force_cutoff_hz, self.timestep, 6)
+        self._contact_filter = LowPass(self.force_cutoff_hz, self.timestep, 3)
+        self._finger_filter = (
+            LowPass(self.force_cutoff_hz, self.timestep, 3 * self._n_fingers) if self._n_fingers else None
+        )
+        self._wrench = np.zeros(6)
+        self._contact = np.zeros(3)
+        self._finger = np.zeros(3 * self._n_fingers)
+        self.contact_stats = ForceStats()
+        self.contact_stats.reset()
+        self.finger_stats = [ForceStats() for _ in range(self._n_fingers)]
+        for s in self.finger_stats:
+            s.reset()
+        self._t0 = float(d.time)
+        self._steps = 0
+        self._n_clipped = 0
+        self._protective_stop = False
+        self._status = TaskStatus()
+        self._episode_started = True
+        self._last_clip = ClipReport()
+        return self._observation(), self._info()
+
+    def _tare(self, rows: np.ndarray) -> None:
+        """Payload model from the tool subtree at rest, plus the remaining bias (e.g. a held object)."""
+        m, d, ix = self.model, self.data, self.index
+        site_pos = d.site_xpos[ix.ft_site]
+        site_rot = d.site_xmat[ix.ft_site].reshape(3, 3)
+        com_site = site_rot.T @ (d.subtree_com[ix.ft_body] - site_pos)
+        self.payload = Payload(mass=float(m.body_subtreemass[ix.ft_body]), com_site=com_site)
+        raw = rows[:, self._wrench_cols]
+        quat = rows[:, ix.ft_quat]
+        self.bias_site = (raw - self.payload.expected_wrench(quat)).mean(axis=0)
+
+    # ---- step ----------------------------------------------------------------------------------------------
+    def step(self, action):
+        if not self._episode_started:
+            raise RuntimeError("call reset() before step()")
+        a = np.asarray(action, dtype=float).reshape(-1)
+        if a.shape != (ACTION_DIM,):
+            raise ValueError(
+                f"action must have shape ({ACTION_DIM},) = [x y z qw qx qy qz gripper], got {np.shape(action)}"
+            )
+        if not np.all(np.isfinite(a)):
+            bad = [i for i in range(ACTION_DIM) if not np.isfinite(a[i])]
+            raise ValueError(f"action has non-finite values at indices {bad} (step {self._steps})")
+        m, d, ix, t = self.model, self.data, self.index, self.task_impl
+        pos_b, quat_b, clip = clip_target(
+            a[:3], a[3:7], self._prev_pos, self._prev_quat, self.control_dt, t.workspace, t.speed_limit
+        )
+        grip = float(a[7])
+        clip_gripper = not (0.0 <= grip <= 1.0)
+        grip = min(max(grip, 0.0), 1.0)
+        if self.frame.is_identity:
+            pos_w, quat_w = pos_b, quat_b
+        else:
+            pos_w, quat_w = self.frame.pos_to_world(pos_b), self.frame.quat_to_world(quat_b)
+        P, Q = interpolate_targets(self._prev_pos_w, self._prev_quat_w, pos_w, quat_w, self.n_substeps)
+        lo, hi = ix.gripper_ctrlrange
+        d.ctrl[ix.gripper_actuator] = lo + grip * (hi - lo)
+
+        mujoco.mj_getState(m, d, self._saved_state, mujoco.mjtState.mjSTATE_INTEGRATION)
+        buf, mpos, mquat, sd, mid = self._buf, self._mocap_pos, self._mocap_quat, self._sensordata, ix.mocap
+        for i in range(self.n_substeps):
+            mpos[mid] = P[i]
+            mquat[mid] = Q[i]
+            mujoco.mj_step(m, d)
+            buf[i] = sd
+
+        wrench, contact, finger, stop_at = self._process_block(buf)
+        n = self.n_substeps
+        if stop_at is not None:
+            # Protective stop: the arm halts at the physics step where the limit was crossed.
+            mujoco.mj_setState(m, d, self._saved_state, mujoco.mjtState.mjSTATE_INTEGRATION)
+            for i in range(stop_at + 1):
+                mpos[mid] = P[i]
+                mquat[mid] = Q[i]
+                mujoco.mj_step(m, d)
+            n = stop_at + 1
+            self._mocap_pos[mid] = d.site_xpos[ix.tcp_site]
+            self._protective_stop = True
+        self._commit_filters(wrench[:n], contact[:n], finger[:n] if finger is not None else None)
+        self.contact_stats.update(contact[:n])
+        for k, s in enumerate(self.finger_stats):
+            s.update(finger[:n, 3 * k : 3 * k + 3])
+
+        self._prev_pos, self._prev_quat = pos_b, quat_b
+        self._prev_pos_w, self._prev_quat_w = pos_w, quat_w
+        self._steps += 1
+        self._last_clip = clip
+        self._clip_gripper = clip_gripper
+        if clip.any or clip_gripper:
+            self._n_clipped += 1
+        block = StepBlock(
+            sensordata=buf[:n], contact_force=contact[:n], wrench=wrench[:n], time=float(d.time) - self._t0
+        )
+        self._status = t.update(d, block)
+        success = self._status.success and not self._protective_stop
+        terminated = bool(self._protective_stop or self._status.success or self._status.failed)
+        obs = self._observation()
+        info = self._info()
+        return obs, float(success), terminated, False, info
+
+    def _process_block(self, buf: np.ndarray):
+        ix, t = self.index, self.task_impl
+        quat = buf[:, ix.ft_quat]
+        wrench = self._wrench_filter(
+            reaction_wrench_base(
+                buf[:, self._wrench_cols], quat, self.payload, self.bias_site, self._base_rot_inv
+            )
+        )
+        n = len(buf)
+        contact_w = (
+            buf[:, self._contact_cols].reshape(n, -1, 3).sum(axis=1)
+            if len(self._contact_cols)
+            else np.zeros((n, 3))
+        )
+        contact = self._contact_filter(
+            contact_w if self.frame.is_identity else self.frame.vec_to_base(contact_w)
+        )
+        over = np.linalg.norm(contact, axis=1) > t.force_limit
+        finger = None
+        if self._n_fingers:
+            f_w = self.robot.gripper.finger_sensor_sign * buf[:, self._finger_cols].reshape(n, -1, 3)
+            f_b = f_w if self.frame.is_identity else self.frame.vec_to_base(f_w)
+            finger = self._finger_filter(f_b.reshape(n, -1))
+            if t.finger_force_limit is not None:
+                over |= np.any(
+                    np.linalg.norm(finger.reshape(n, -1, 3), axis=2) > t.finger_force_limit, axis=1
+                )
+        stop_at = int(np.argmax(over)) if over.any() else None
+        return wrench, contact, finger, stop_at
+
+    def _commit_filters(self, wrench: np.ndarray, contact: np.ndarray, finger: np.ndarray | None) -> None:
+        # The filters ran over the whole block; after a protective stop only its first rows happened.
+        self._wrench = wrench[-1]
+        self._contact = contact[-1]
+        self._wrench_filter.state = wrench[-1].copy()
+        self._contact_filter.state = contact[-1].copy()
+        if finger is not None:
+            self._finger = finger[-1]
+            self._finger_filter.state = finger[-1].copy()
+
+    # ---- observation and info ----------------------------------------------------------------------------
+    def _align(self, q: np.ndarray) -> np.ndarray:
+        """Quaternion sign convention of the envs: the hemisphere of the robot's tool-down orientation."""
+        return -q if float(np.dot(q, self._tool_ref_quat)) < 0 else q
+
+    def tcp_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Current TCP pose in the base frame (position m, quaternion w x y z in the tool-down hemisphere)."""
+        d, ix = self.data, self.index
+        q = np.empty(4)
+        mujoco.mju_mat2Quat(q, d.site_xmat[ix.tcp_site])
+        if self.frame.is_identity:
+            return d.site_xpos[ix.tcp_site].copy(), self._align(q)
+        return self.frame.pos_to_base(d.site_xpos[ix.tcp_site]), self._align(self.frame.quat_to_base(q))
+
+    def _observation(self) -> dict[str, Any]:
+        d, ix = self.data, self.index
+        closure = self.robot.gripper.opening(d.qpos[ix.gripper_qpos])
+        pos, quat = self.tcp_pose()
+        obs: dict[str, Any] = {
+            ENV_AGENT_POS: np.concatenate([d.qpos[ix.arm_qpos], [closure]]).astype(np.float32),
+            ENV_EE_POSE: np.concatenate([pos, quat]).astype(np.float32),
+            ENV_FORCE: self._wrench.astype(np.float32),
+            ENV_STATE: np.asarray(self.task_impl.environment_state(d), dtype=np.float32),
+        }
+        if self._n_fingers:
+            obs[ENV_FINGER_FORCE] = self._finger.astype(np.float32)
+        if self.obs_type == "pixels_state":
+            obs[ENV_PIXELS] = {CAMERA: self._render(self.image_size)}
+        return obs
+
+    def _info(self) -> dict[str, Any]:
+        st, clip, cs = self._status, self._last_clip, self.contact_stats
+        success = bool(st.success and not self._protective_stop)
+        reason = "protective_stop" if self._protective_stop else ("success" if success else st.failure_reason)
+        info: dict[str, Any] = {
+            "is_success": success,
+            "protective_stop": self._protective_stop,
+            "termination_reason": reason,
+            "max_contact_force": cs.max_norm,
+            "mean_contact_force": cs.mean_norm,
+            "max_contact_force_xyz": cs.max_abs.copy(),
+            "mean_contact_force_xyz": cs.mean_abs.copy(),
+            "contact_force": self._contact.copy(),
+            "force_limit": float(self.task_impl.force_limit),
+            "target_clipped": bool(clip.any or getattr(self, "_clip_gripper", False)),
+            "clip_workspace": clip.workspace,
+            "clip_speed": clip.speed,
+            "clip_orientation_invalid": clip.orientation_invalid,
+            "clip_gripper": bool(getattr(self, "_clip_gripper", False)),
+            "clip_distance": clip.clipped_distance,
+            "n_clipped_steps": self._n_clipped,
+            "elapsed_s": self._steps * self.control_dt,
+        }
+        if self._n_fingers:
+            info["max_finger_force"] = np.array([s.max_norm for s in self.finger_stats])
+            info["mean_finger_force"] = np.array([s.mean_norm for s in self.finger_stats])
+        info.update(self.task_impl.episode_metrics())
+        return info
+
+    # ---- rendering ------------------------------------------------------------------------------------------
+    def _render(self, size: int) -> np.ndarray:
+        renderer = self._renderers.get(size)
+        if renderer is None:  # created lazily: AsyncVectorEnv workers each make their own GL context
+            renderer = mujoco.Renderer(self.model, size, size)
+            self._renderers[size] = renderer
+        renderer.update_scene(self.data, camera=CAMERA)
+        flags = renderer.scene.flags
+        flags[mujoco.mjtRndFlag.mjRND_SHADOW] = 0
+        flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
+        return renderer.render()
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called with render_mode=None")
+            return None
+        return self._render(self.render_size)
+
+    def close(self):
+        for r in self._renderers.values():
+            r.close()
+        self._renderers.clear()
+        super().close()

@@ -1,0 +1,498 @@
+"""Seeded scripted demonstrators: a "human" per task, with noise and the force habits of the paper.
+
+Each demonstrator is a policy over the env's observations (``act(obs) -> action`` in the layout of
+``lerobot_forcemap.layout``); it reads the privileged object poses from ``environment_state`` (names
+in ``env.unwrapped.state_names``) the way a person sees the scene, plans a timed path with minimum-jerk
+segments, and adds smooth hand noise (a few random low-frequency sinusoids). ``phase`` / ``phase_index``
+name the current phase (recorded into the datasets as ground-truth segment labels).
+
+- ``press`` (VR teleoperation without haptics): descends onto the button and keeps pushing past the
+  hard stop — the commanded depth is chosen so that the excess force is 35-75 N (below the 100 N stop).
+- ``erase`` (kinesthetic teaching): presses the eraser with a steady force of 12-20 N, where 3 N
+  erases, and wipes the S at 3.5-4.5 cm/s.
+- ``peg_in_hole``: sees the peg with a 2-4 mm lateral error, descends at 3-4 cm/s, bumps the peg top
+  (reacting after 0.2-0.35 s, so the force builds up to 10-35 N), lifts a little,
+  re-centres and inserts, releases the disc, retreats.
+
+All randomness comes from the ``numpy.random.Generator`` given at construction (or a seed).
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from ..layout import ACTION_DIM, EE_POS, EE_QUAT, ENV_EE_POSE, ENV_FORCE, ENV_STATE
+
+
+def min_jerk(s: np.ndarray | float) -> np.ndarray | float:
+    """Minimum-jerk time scaling 10 s^3 - 15 s^4 + 6 s^5 on s in [0, 1]."""
+    s = np.clip(s, 0.0, 1.0)
+    return s**3 * (10 - 15 * s + 6 * s**2)
+
+
+class SmoothNoise:
+    """Band-limited hand noise: a sum of ``n`` sinusoids per axis with random frequency and phase.
+
+    ``amplitude`` (per axis) is the standard deviation of the sum; frequencies uniform in ``freq_hz``.
+    """
+
+    def __init__(self, rng: np.random.Generator, amplitude: Sequence[float], freq_hz=(0.2, 1.5), n: int = 4):
+        amp = np.asarray(amplitude, dtype=float)
+        self.freq = rng.uniform(*freq_hz, size=(n, len(amp)))
+        self.phase = rng.uniform(0, 2 * np.pi, size=(n, len(amp)))
+        # each sinusoid has variance a^2/2; n of them sum to n a^2 / 2
+        self.a = amp * np.sqrt(2.0 / n)
+
+    def __call__(self, t: float) -> np.ndarray:
+        return (self.a * np.sin(2 * np.pi * self.freq * t + self.phase)).sum(axis=0)
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A straight minimum-jerk move to ``target`` (base frame, m) over ``duration`` s, in ``phase``."""
+
+    target: np.ndarray
+    duration: float
+    phase: str
+    gripper: float | None = None  # command during the segment (None: keep)
+
+
+class PathPlan:
+    """Piecewise minimum-jerk path through segments, sampled by time (s from its start)."""
+
+    def __init__(self, start: np.ndarray, segments: Sequence[Segment], gripper: float):
+        self.start = np.asarray(start, dtype=float)
+        self.segments = list(segments)
+        self.t_end = np.cumsum([s.duration for s in self.segments])
+        self.t_start = self.t_end - np.array([s.duration for s in self.segments])
+        starts = [self.start] + [s.target for s in self.segments[:-1]]
+        self.seg_start = [np.asarray(p, float) for p in starts]
+        grips, g = [], gripper
+        for s in self.segments:
+            g = g if s.gripper is None else s.gripper
+            grips.append(g)
+        self.grippers = grips
+
+    @property
+    def duration(self) -> float:
+        return float(self.t_end[-1]) if len(self.segments) else 0.0
+
+    def sample(self, t: float) -> tuple[np.ndarray, float, int]:
+        """Position, gripper command and segment index at time ``t`` (held at the end after the last)."""
+        if not self.segments:
+            return self.start.copy(), 0.0, 0
+        i = int(np.searchsorted(self.t_end, t, side="right"))
+        if i >= len(self.segments):
+            return self.segments[-1].target.copy(), self.grippers[-1], len(self.segments) - 1
+        seg = self.segments[i]
+        s = (t - self.t_start[i]) / seg.duration if seg.duration > 0 else 1.0
+        p = self.seg_start[i] + min_jerk(s) * (seg.target - self.seg_start[i])
+        return p, self.grippers[i], i
+
+
+class ScriptedDemonstrator(abc.ABC):
+    """Base: holds the rng, the control period and the phase; subclasses plan in :meth:`reset`."""
+
+    task: ClassVar[str]
+    phases: ClassVar[tuple[str, ...]]
+
+    def __init__(
+        self, rng: np.random.Generator | int | None = None, *, control_hz: float = 20.0, state_names=None
+    ):
+        self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        self.dt = 1.0 / control_hz
+        self.state_names = tuple(state_names) if state_names is not None else None
+        self.phase = self.phases[0]
+        self.t = 0.0
+
+    @property
+    def phase_index(self) -> int:
+        return self.phases.index(self.phase)
+
+    def state(self, obs: dict, name: str) -> float:
+        """A named entry of ``environment_state`` (names from the env's ``state_names``)."""
+        names = self.state_names or self.default_state_names()
+        return float(obs[ENV_STATE][names.index(name)])
+
+    def default_state_names(self) -> tuple[str, ...]:
+        from . import registration  # noqa: F401  (names come from the task class)
+
+        return _task_class(self.task).state_names
+
+    @abc.abstractmethod
+    def reset(self, obs: dict) -> None: ...
+
+    def describe(self) -> dict[str, float]:
+        """This episode's sampled demonstrator parameters (recorded per episode)."""
+        return {}
+
+    @abc.abstractmethod
+    def act(self, obs: dict) -> np.ndarray: ...
+
+    def _action(self, pos: np.ndarray, quat: np.ndarray, gripper: float) -> np.ndarray:
+        a = np.empty(ACTION_DIM, dtype=np.float32)
+        a[0:3] = pos
+        a[3:7] = quat
+        a[7] = gripper
+        return a
+
+
+def _task_class(task: str):
+    import importlib
+
+    from .registration import task_entry
+
+    module, cls = task_entry(task).entry_point.split(":")
+    return importlib.import_module(module).__dict__[cls].task_class
+
+
+# ---- press ---------------------------------------------------------------------------------------------------
+
+
+class PressDemonstrator(ScriptedDemonstrator):
+    """VR teleoperation without haptics: overshoots the button's travel (excess force, below the stop)."""
+
+    task = "press"
+    phases = ("approach", "descend", "press", "hold", "retreat", "done")
+
+    def __init__(
+        self,
+        rng=None,
+        *,
+        control_hz: float = 20.0,
+        state_names=None,
+        stiffness: float = 2000.0,
+        excess_force: tuple[float, float] = (35.0, 75.0),
+        lateral_error: float = 0.0015,
+        tremor: float = 0.0008,
+    ):
+        super().__init__(rng, control_hz=control_hz, state_names=state_names)
+        self.stiffness = stiffness
+        self.excess_force = excess_force
+        self.lateral_error = lateral_error
+        self.tremor = tremor
+
+    def reset(self, obs: dict) -> None:
+        from .tasks.press import TRAVEL
+
+        r = self.rng
+        self.t = 0.0
+        start = np.asarray(obs[ENV_EE_POSE][EE_POS], float)
+        self.quat = np.asarray(obs[ENV_EE_POSE][EE_QUAT], float)
+        p = np.array([self.state(obs, "button_x"), self.state(obs, "button_y"), self.state(obs, "button_z")])
+        self.aim_error = np.clip(
+            r.normal(0, self.lateral_error, 2), -2.5 * self.lateral_error, 2.5 * self.lateral_error
+        )
+        p[:2] += self.aim_error
+        self.target_excess = float(r.uniform(*self.excess_force))
+        # Cap bottoms out ~TRAVEL below the press point; beyond it the force grows with the stiffness.
+        depth = TRAVEL + self.target_excess / self.stiffness
+        above = p + [0, 0, r.uniform(0.04, 0.06)]
+        contact = p + [0, 0, 0.002]
+        approach_time = _duration(start, above, r.uniform(1.4, 2.0))
+        bottom = p - [0, 0, depth]
+        retreat = p + [0, 0, r.uniform(0.06, 0.09)]
+        self.plan = PathPlan(
+            start,
+            [
+                Segment(above, approach_time, "approach"),
+                Segment(contact, r.uniform(0.8, 1.2), "descend"),
+                Segment(bottom, r.uniform(0.5, 0.8), "press"),
+                Segment(bottom, r.uniform(0.3, 0.6), "hold"),
+                Segment(retreat, r.uniform(1.0, 1.5), "retreat"),
+                Segment(retreat, 100.0, "done"),
+            ],
+            gripper=1.0,
+        )
+        self.noise = SmoothNoise(r, [self.tremor] * 3)
+        self.phase = self.phases[0]
+
+    def describe(self) -> dict[str, float]:
+        return {
+            "excess_force_target_N": self.target_excess,
+            "aim_error_m": float(np.linalg.norm(self.aim_error)),
+        }
+
+    def act(self, obs: dict) -> np.ndarray:
+        self.t += self.dt
+        pos, grip, i = self.plan.sample(self.t)
+        self.phase = self.plan.segments[i].phase
+        return self._action(pos + self.noise(self.t), self.quat, grip)
+
+
+DEMONSTRATORS: dict[str, type[ScriptedDemonstrator]] = {"press": PressDemonstrator}
+
+
+def make_demonstrator(task: str, rng=None, **kwargs) -> ScriptedDemonstrator:
+    try:
+        cls = DEMONSTRATORS[task]
+    except KeyError:
+        raise ValueError(
+            f"no scripted demonstrator for task {task!r}; known: {sorted(DEMONSTRATORS)}"
+        ) from None
+    return cls(rng, **kwargs)
+
+
+def run_episode(env, demonstrator: ScriptedDemonstrator, seed: int, max_steps: int | None = None):
+    """Roll one demonstration; returns the list of (obs, action, phase_index) and the final info."""
+    obs, info = env.reset(seed=seed)
+    demonstrator.reset(obs)
+    frames = []
+    limit = max_steps or getattr(env, "_max_episode_steps", None) or env.spec.max_episode_steps
+    for _ in range(limit):
+        action = demonstrator.act(obs)
+        frames.append((obs, action, demonstrator.phase_index))
+        obs, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            break
+    return frames, info
+
+
+__all__ = [
+    "DEMONSTRATORS",
+    "PathPlan",
+    "PressDemonstrator",
+    "ScriptedDemonstrator",
+    "Segment",
+    "SmoothNoise",
+    "make_demonstrator",
+    "min_jerk",
+    "run_episode",
+    "ENV_FORCE",
+]
+
+
+# ---- erase ----------------------------------------------------------------------------------------------------
+
+
+class EraseDemonstrator(ScriptedDemonstrator):
+    """Kinesthetic teaching: steady but higher-than-needed contact force along the S."""
+
+    task = "erase"
+    phases = ("approach", "descend", "wipe", "lift", "retreat", "done")
+
+    def __init__(
+        self,
+        rng=None,
+        *,
+        control_hz: float = 20.0,
+        state_names=None,
+        stiffness: float = 2000.0,
+        hold_force: tuple[float, float] = (12.0, 20.0),
+        speed: tuple[float, float] = (0.035, 0.045),
+        lateral_noise: float = 0.0015,
+        depth_noise: float = 0.0015,
+    ):
+        super().__init__(rng, control_hz=control_hz, state_names=state_names)
+        self.stiffness = stiffness
+        self.hold_force = hold_force
+        self.speed = speed
+        self.lateral_noise = lateral_noise
+        self.depth_noise = depth_noise
+
+    def reset(self, obs: dict) -> None:
+        from .tasks.erase import ERASER_STIFFNESS, s_path_base
+
+        r = self.rng
+        self.t = 0.0
+        start = np.asarray(obs[ENV_EE_POSE][EE_POS], float)
+        self.quat = np.asarray(obs[ENV_EE_POSE][EE_QUAT], float)
+        board = np.array([self.state(obs, n) for n in ("board_x", "board_y", "board_z")])
+        bquat = np.array([self.state(obs, n) for n in ("board_qw", "board_qx", "board_qy", "board_qz")])
+        path = s_path_base(board, bquat, 200)
+        self.target_force = float(r.uniform(*self.hold_force))
+        series = 1.0 / (1.0 / self.stiffness + 1.0 / ERASER_STIFFNESS)
+        depth = self.target_force / series
+        down = np.array([0.0, 0.0, depth])
+        seg_len = np.linalg.norm(np.diff(path, axis=0), axis=1)
+        v = float(r.uniform(*self.speed))
+        self.wipe_speed = v
+        above = path[0] + [0, 0, r.uniform(0.04, 0.06)]
+        segments = [
+            Segment(above, _duration(start, above, r.uniform(1.4, 2.0)), "approach"),
+            Segment(path[0] - down, r.uniform(1.0, 1.4), "descend"),
+        ]
+        segments += [
+            Segment(p - down, float(seg) / v, "wipe") for p, seg in zip(path[1:], seg_len, strict=True)
+        ]
+        segments += [
+            Segment(path[-1] + [0, 0, 0.03], r.uniform(0.8, 1.2), "lift"),
+            Segment(path[-1] + [0, 0, r.uniform(0.08, 0.1)], r.uniform(0.8, 1.2), "retreat"),
+            Segment(path[-1] + [0, 0, 0.1], 100.0, "done"),
+        ]
+        # Wipe segments are short straight pieces: min-jerk on each would stop at every piece, so the
+        # wipe is sampled with constant speed along the polyline instead (see act()).
+        self.plan = PathPlan(start, segments, gripper=0.6)
+        self.noise = SmoothNoise(
+            r, [self.lateral_noise, self.lateral_noise, self.depth_noise], freq_hz=(0.1, 0.8)
+        )
+        self.phase = self.phases[0]
+
+    def describe(self) -> dict[str, float]:
+        return {"hold_force_target_N": self.target_force, "wipe_speed_m_per_s": self.wipe_speed}
+
+    def act(self, obs: dict) -> np.ndarray:
+        self.t += self.dt
+        pos, grip, i = self.plan.sample(self.t)
+        seg = self.plan.segments[i]
+        if seg.phase == "wipe":  # constant speed inside wipe pieces (no stop-and-go)
+            a, b = self.plan.seg_start[i], seg.target
+            s = (self.t - self.plan.t_start[i]) / seg.duration
+            pos = a + np.clip(s, 0, 1) * (b - a)
+        self.phase = seg.phase
+        noise = self.noise(self.t) if seg.phase in ("descend", "wipe") else np.zeros(3)
+        return self._action(pos + noise, self.quat, grip)
+
+
+DEMONSTRATORS["erase"] = EraseDemonstrator
+
+
+# ---- peg_in_hole ----------------------------------------------------------------------------------------------
+
+
+class PegInHoleDemonstrator(ScriptedDemonstrator):
+    """Misjudges the peg position by a few mm, bumps the peg top, lifts, re-centres, inserts, releases."""
+
+    task = "peg_in_hole"
+    phases = ("approach", "descend", "recover", "insert", "release", "retreat", "done")
+
+    def __init__(
+        self,
+        rng=None,
+        *,
+        control_hz: float = 20.0,
+        state_names=None,
+        lateral_error: tuple[float, float] = (0.002, 0.004),
+        bump_force: float = 4.0,
+        reaction_time: tuple[float, float] = (0.2, 0.35),
+        descend_speed: tuple[float, float] = (0.03, 0.04),
+        insert_speed: float = 0.02,
+        insert_depth: float = 0.03,
+        tremor: float = 0.0003,
+    ):
+        super().__init__(rng, control_hz=control_hz, state_names=state_names)
+        self.lateral_error = lateral_error
+        self.bump_force = bump_force
+        self.reaction_time = reaction_time
+        self.descend_speed = descend_speed
+        self.insert_speed = insert_speed
+        self.insert_depth = insert_depth
+        self.tremor = tremor
+
+    def reset(self, obs: dict) -> None:
+        from .tasks.peg_in_hole import RING_HALF_THICK
+
+        r = self.rng
+        self.t = 0.0
+        tcp = np.asarray(obs[ENV_EE_POSE][EE_POS], float)
+        self.quat = np.asarray(obs[ENV_EE_POSE][EE_QUAT], float)
+        self.peg = np.array([self.state(obs, n) for n in ("peg_x", "peg_y", "peg_z")])
+        disc = np.array([self.state(obs, n) for n in ("disc_x", "disc_y", "disc_z")])
+        # TCP target = where the disc centre should be, minus the disc's offset in the hand
+        self.offset = disc - tcp
+        self.half_thick = RING_HALF_THICK
+        angle = r.uniform(0, 2 * np.pi)
+        self.error = r.uniform(*self.lateral_error) * np.array([np.cos(angle), np.sin(angle), 0.0])
+        self.residual = np.append(np.clip(r.normal(0, 0.0003, 2), -0.0008, 0.0008), 0.0)
+        self.delay = float(r.uniform(*self.reaction_time))
+        self.bump_t = None
+        aim = self.peg + self.error
+        above = self._tcp_for_disc_bottom(aim, self.peg[2] + r.uniform(0.025, 0.035))
+        deep = self._tcp_for_disc_bottom(aim, self.peg[2] - self.insert_depth)
+        speed = float(r.uniform(*self.descend_speed))
+        self.plan = PathPlan(
+            tcp,
+            [
+                Segment(above, _duration(tcp, above, r.uniform(1.5, 2.0)), "approach"),
+                Segment(deep, float(np.linalg.norm(deep - above)) / speed, "descend"),
+            ],
+            gripper=1.0,
+        )
+        self.plan_t0 = 0.0
+        self.noise = SmoothNoise(r, [self.tremor] * 3)
+        self.recovered = False
+        self.finishing = False
+        self.phase = self.phases[0]
+        self.last_pos = tcp
+
+    def describe(self) -> dict[str, float]:
+        return {
+            "aim_error_m": float(np.linalg.norm(self.error)),
+            "reaction_time_s": self.delay,
+            "bumped": float(self.bump_t is not None),
+        }
+
+    def _tcp_for_disc_bottom(self, xy: np.ndarray, bottom_z: float) -> np.ndarray:
+        disc_centre = np.array([xy[0], xy[1], bottom_z + self.half_thick])
+        return disc_centre - self.offset
+
+    def _replan(self, segments: list[Segment], gripper: float) -> None:
+        self.plan = PathPlan(self.last_pos, segments, gripper=gripper)
+        self.plan_t0 = self.t
+
+    def act(self, obs: dict) -> np.ndarray:
+        r = self.rng
+        self.t += self.dt
+        force = float(np.linalg.norm(np.asarray(obs[ENV_FORCE][:3], float)))
+        # measured (not commanded) disc height: the target runs ahead of the disc when it is blocked
+        disc_bottom = float(obs[ENV_EE_POSE][2]) + self.offset[2] - self.half_thick
+        if (
+            self.phase == "descend"
+            and self.bump_t is None
+            and force > self.bump_force
+            and disc_bottom > self.peg[2] - 0.006
+        ):
+            self.bump_t = self.t  # felt the bump; the hand reacts after a delay (and keeps pushing meanwhile)
+        if (
+            self.phase == "descend"
+            and not self.recovered
+            and self.bump_t is not None
+            and self.t - self.bump_t >= self.delay
+        ):
+            # Lift a little, re-centre on the (now felt) axis, insert slowly.
+            self.recovered = True
+            lifted = np.asarray(obs[ENV_EE_POSE][EE_POS], float) + [0, 0, 0.002]
+            centred = self._tcp_for_disc_bottom(
+                self.peg + self.residual, lifted[2] + self.offset[2] - self.half_thick
+            )
+            deep = self._tcp_for_disc_bottom(self.peg + self.residual, self.peg[2] - self.insert_depth)
+            self._replan(
+                [
+                    Segment(lifted, r.uniform(0.25, 0.4), "recover"),
+                    Segment(centred, r.uniform(0.5, 0.8), "recover"),
+                    Segment(deep, float(np.linalg.norm(deep - centred)) / self.insert_speed, "insert"),
+                ],
+                gripper=1.0,
+            )
+        pos, grip, i = self.plan.sample(self.t - self.plan_t0)
+        self.phase = self.plan.segments[i].phase
+        at_end = self.t - self.plan_t0 >= self.plan.duration
+        if at_end and not self.finishing and self.phase in ("descend", "insert"):
+            self.finishing = True
+            up = pos + [0, 0, r.uniform(0.08, 0.1)]
+            self.last_pos = pos
+            self._replan(
+                [
+                    Segment(pos, r.uniform(0.6, 0.9), "release", gripper=0.0),
+                    Segment(up, r.uniform(1.2, 1.6), "retreat"),
+                    Segment(up, 100.0, "done"),
+                ],
+                gripper=0.0,
+            )
+            pos, grip, i = self.plan.sample(self.t - self.plan_t0)
+            self.phase = self.plan.segments[i].phase
+        self.last_pos = pos
+        return self._action(pos + self.noise(self.t), self.quat, grip)
+
+
+DEMONSTRATORS["peg_in_hole"] = PegInHoleDemonstrator
+
+
+def _duration(a: np.ndarray, b: np.ndarray, base: float, max_speed: float = 0.15) -> float:
+    """Duration of a minimum-jerk move: at least ``base``, and slow enough for ``max_speed`` at the peak."""
+    return max(base, 1.875 * float(np.linalg.norm(np.asarray(b) - np.asarray(a))) / max_speed)

@@ -1,0 +1,99 @@
+import importlib
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import lerobot_forcemap.envs as E
+from lerobot_forcemap.envs.registration import TASKS
+from lerobot_forcemap.layout import ACTION_DIM, ENV_PIXELS
+
+from .conftest import TASK_NAMES
+
+
+def test_gym_ids_registered_with_task_lengths():
+    for name, entry in TASKS.items():
+        assert entry.gym_id in gym.registry
+        module, cls = entry.entry_point.split(":")
+        task_class = getattr(importlib.import_module(module), cls).task_class
+        assert task_class.name == name
+        assert task_class.max_episode_steps == entry.max_episode_steps
+        assert task_class.control_hz == entry.control_hz
+        assert gym.spec(entry.gym_id).max_episode_steps == entry.max_episode_steps
+    assert {"lerobot_forcemap/Press-v0", "lerobot_forcemap/Erase-v0", "lerobot_forcemap/PegInHole-v0"} <= set(
+        gym.registry
+    )
+
+
+@pytest.mark.parametrize("task", TASK_NAMES)
+def test_check_env(task):
+    env = E.make(task)
+    check_env(env.unwrapped, skip_render_check=False)
+    env.close()
+
+
+@pytest.mark.parametrize("task", TASK_NAMES)
+def test_same_seed_same_observations(task):
+    env = E.make(task)
+    runs = []
+    for _ in range(2):
+        obs, _ = env.reset(seed=7)
+        traj = [obs]
+        rng = np.random.default_rng(0)
+        for _ in range(10):
+            a = np.concatenate(
+                [obs["ee_pose"][:3] + rng.uniform(-0.01, 0.01, 3), obs["ee_pose"][3:], [rng.uniform()]]
+            )
+            obs, *_ = env.step(a)
+            traj.append(obs)
+        runs.append(traj)
+    for o1, o2 in zip(*runs, strict=True):
+        for k in o1:
+            np.testing.assert_array_equal(o1[k], o2[k])
+    other, _ = env.reset(seed=8)
+    assert not np.array_equal(other["environment_state"], runs[0][0]["environment_state"])
+
+
+def test_observation_layout_matches_state_names():
+    env = E.make("peg_in_hole", obs_type="pixels_state", image_size=64)
+    obs, info = env.reset(seed=0)
+    names = env.unwrapped.state_names
+    for key, n in names.items():
+        assert obs[key].shape == (len(n),) and obs[key].dtype == np.float32
+    assert obs[ENV_PIXELS]["front"].shape == (64, 64, 3) and obs[ENV_PIXELS]["front"].dtype == np.uint8
+    assert obs in env.observation_space
+    frame = env.render()
+    assert frame.shape == (256, 256, 3) and frame.dtype == np.uint8 and frame.std() > 5
+    # the disc starts in the hand, above the peg, nothing inserted
+    st = dict(zip(names["environment_state"], obs["environment_state"], strict=True))
+    assert st["disc_z"] > st["peg_z"] + 0.05 and st["insertion_depth"] == 0.0
+    env.close()
+
+
+def test_bad_actions_and_options_raise():
+    env = E.make("press")
+    obs, _ = env.reset(seed=0)
+    with pytest.raises(ValueError, match="shape"):
+        env.step(np.zeros(7))
+    a = np.concatenate([obs["ee_pose"], [1.0]])
+    a[2] = np.nan
+    with pytest.raises(ValueError, match=r"non-finite values at indices \[2\]"):
+        env.step(a)
+    with pytest.raises(ValueError, match="unknown options"):
+        env.reset(seed=0, options={"bogus": 1})
+    env.reset(seed=0, options={"lerobot_new_rollout": True})  # LeRobot's rollout option is accepted
+
+
+def test_clipping_is_reported_not_silent():
+    env = E.make("press")
+    obs, info = env.reset(seed=0)
+    assert not info["target_clipped"] and info["n_clipped_steps"] == 0
+    far = np.concatenate([obs["ee_pose"][:3] + [0.2, 0, 0], obs["ee_pose"][3:], [1.0]])
+    obs2, _, _, _, info = env.step(far)
+    assert info["target_clipped"] and info["clip_speed"] and not info["clip_workspace"]
+    assert info["clip_distance"] == pytest.approx(0.2 - 0.25 * 0.05, abs=1e-4)  # obs is float32, TCP ~ target
+    outside = np.concatenate([[0.0, 0.0, 0.2], obs["ee_pose"][3:], [1.5]])
+    _, _, _, _, info = env.step(outside)
+    assert info["clip_workspace"] and info["clip_gripper"] and info["n_clipped_steps"] == 2
+    assert env.action_space.shape == (ACTION_DIM,)

@@ -1,0 +1,57 @@
+"""The LeRobot env plugin: env types registered, observation keys mapped, force reaches a policy."""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("lerobot")
+
+from lerobot.configs import FeatureType  # noqa: E402
+from lerobot.envs.configs import EnvConfig  # noqa: E402
+from lerobot.envs.factory import make_env, make_env_config  # noqa: E402
+from lerobot.envs.utils import env_to_policy_features, preprocess_observation  # noqa: E402
+
+import lerobot_policy_forcemap  # noqa: E402,F401  (the plugin entry point LeRobot imports)
+from lerobot_forcemap import layout  # noqa: E402
+
+
+def test_env_types_registered():
+    known = EnvConfig.get_known_choices()
+    for name in ("forcemap_press", "forcemap_erase", "forcemap_peg_in_hole"):
+        assert name in known
+
+
+def test_policy_features_include_force():
+    cfg = make_env_config("forcemap_erase")
+    feats = env_to_policy_features(cfg)
+    assert feats[layout.OBS_FORCE].type is FeatureType.STATE and feats[layout.OBS_FORCE].shape == (6,)
+    assert feats[layout.OBS_STATE].shape == (7,) and feats[layout.ACTION].shape == (8,)
+    assert feats[layout.OBS_ENV_STATE].type is FeatureType.ENV
+    assert cfg.fps == 20 and cfg.episode_length == 600 and cfg.gym_id == "lerobot_forcemap/Erase-v0"
+    pix = make_env_config("forcemap_press", obs_type="pixels_state", image_size=64)
+    assert env_to_policy_features(pix)["observation.images.front"].shape == (3, 64, 64)
+
+
+def test_make_env_and_preprocess_observation_deliver_force():
+    cfg = make_env_config("forcemap_press")
+    envs = make_env(cfg, n_envs=2)
+    vec = envs["forcemap_press"][0]
+    try:
+        obs, _ = vec.reset(seed=[0, 1])
+        target = np.concatenate(
+            [obs["ee_pose"][:, :2], np.full((2, 1), -0.015), obs["ee_pose"][:, 3:], np.ones((2, 1))], axis=1
+        )
+        for _ in range(25):  # press the table 15 mm deep: about 30 N
+            obs, reward, term, trunc, info = vec.step(target.astype(np.float32))
+        batch = preprocess_observation(obs)
+        assert set(batch) == {layout.OBS_STATE, layout.OBS_EE_POSE, layout.OBS_FORCE, layout.OBS_ENV_STATE}
+        assert tuple(batch[layout.OBS_FORCE].shape) == (2, 6)
+        np.testing.assert_allclose(batch[layout.OBS_FORCE].numpy(), obs["force"], rtol=1e-6)
+        assert obs["force"][:, 2].min() > 20.0  # reaction on the robot: up
+        assert vec.call("_max_episode_steps") == (200, 200)
+        assert vec.call("task_description")[0].startswith("Press")
+        assert vec.metadata["render_fps"] == 20 and isinstance(vec.metadata["render_fps"], int)  # PyAV needs an int
+        frame = vec.call("render")[0]
+        assert frame.dtype == np.uint8 and frame.shape == (256, 256, 3)
+        assert "is_success" in info and "max_contact_force" in info
+    finally:
+        vec.close()

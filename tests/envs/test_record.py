@@ -1,0 +1,66 @@
+import json
+
+import numpy as np
+import pytest
+
+from lerobot_forcemap import layout
+from lerobot_forcemap.envs.record import EPISODES_FILE, record_demonstrations
+
+
+@pytest.fixture(scope="module")
+def press_dataset(tmp_path_factory):
+    root = tmp_path_factory.mktemp("ds") / "press"
+    result = record_demonstrations("press", 2, 0, root, progress=False)
+    return root, result
+
+
+def test_recorded_dataset_loads_with_force_features(press_dataset):
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    root, result = press_dataset
+    ds = LeRobotDataset("local/forcemap_press", root=root)
+    assert ds.meta.fps == 20 and ds.meta.total_episodes == 2
+    assert ds.meta.total_frames == sum(e["n_frames"] for e in result.episodes)
+    feats = ds.meta.features
+    assert feats[layout.OBS_FORCE]["names"] == list(layout.FORCE_NAMES)
+    assert feats[layout.ACTION]["names"] == list(layout.ACTION_NAMES)
+    assert feats[layout.OBS_ENV_STATE]["names"][:3] == ["button_x", "button_y", "button_z"]
+    assert feats[layout.CONTACT_FORCE]["names"] == list(layout.CONTACT_FORCE_NAMES)
+    frame = ds[10]
+    assert tuple(frame[layout.OBS_FORCE].shape) == (6,)
+    assert frame["task"].startswith("Press")
+    force = np.stack([ds[i][layout.OBS_FORCE].numpy() for i in range(len(ds))])
+    contact = np.stack([ds[i][layout.CONTACT_FORCE].numpy() for i in range(len(ds))])
+    phase = np.array([int(ds[i][layout.DEMO_PHASE]) for i in range(len(ds))])
+    episode = np.array([int(ds[i]["episode_index"]) for i in range(len(ds))])
+    # pressing shows in the recorded wrist force (+z, reaction) and agrees with the contact force
+    assert force[:, 2].max() > 25.0
+    np.testing.assert_allclose(force[:, 2].max(), contact[:, 2].max(), rtol=0.1)
+    for e, rec in enumerate(result.episodes):
+        sel = episode == e
+        assert np.all(np.diff(phase[sel]) >= 0)  # phases advance
+        # the per-frame column is the physics-rate signal sampled at 20 Hz: its max is below the episode max
+        peak = np.linalg.norm(contact[sel], axis=1).max()
+        assert 0.8 * rec["max_contact_force"] <= peak <= rec["max_contact_force"] + 1e-3
+
+
+def test_episode_metadata_and_card(press_dataset):
+    root, result = press_dataset
+    meta = json.loads((root / "meta" / EPISODES_FILE).read_text())
+    assert meta["fps"] == 20 and meta["force_limit_N"] == 100.0
+    assert meta["phases"][0] == "approach" and len(meta["episodes"]) == 2
+    ep = meta["episodes"][0]
+    assert ep["is_success"] and ep["seed"] == 0 and len(ep["max_contact_force_xyz"]) == 3
+    assert "excess_force_target_N" in ep["demonstrator"]
+    card = (root / "README.md").read_text()
+    assert "observation.force" in card and "success test" in card.lower()
+
+
+def test_record_cli_and_overwrite_guard(tmp_path):
+    from lerobot_forcemap.cli import main
+
+    out = tmp_path / "peg"
+    assert main(["record", "--task", "peg_in_hole", "--episodes", "1", "--seed", "5", "--out", str(out)]) == 0
+    assert (out / "meta" / "info.json").is_file()
+    with pytest.raises(ValueError, match="exists"):
+        main(["record", "--task", "peg_in_hole", "--episodes", "1", "--seed", "5", "--out", str(out)])
