@@ -1,0 +1,447 @@
+"""``forcemap eval``: roll a policy checkpoint in a sim task; one JSON record per episode, next to the
+demonstrations' same figures.
+
+    forcemap eval --policy outputs/press_policy --task press --episodes 20 --seed 1000 --json outputs/eval.json \
+        [--dataset datasets/press] [--trace] [--video-dir outputs/videos --videos 1]
+
+The rollout is ``lerobot-eval``'s, one env at a time: ``preprocess_observation`` (raw env keys ->
+``observation.*``), the checkpoint's saved pre-processor, ``policy.select_action``, the
+post-processor, ``env.step``. Any LeRobot policy checkpoint loads (its ``config.json`` names the
+type), not only ``forcemap``. Episode i uses env seed ``seed + i``. ``lerobot-eval`` reports success
+only; the force figures come from the env's ``info`` (filtered contact force at physics rate, the
+same statistics the recorder stores per demonstration in ``meta/forcemap_episodes.json``).
+
+JSON: ``{"task", "policy", "seed", "episodes": [record...], "summary", "demonstrations": {"source",
+"fitted_episodes", "episodes": [record...], "summary_all", "summary_fitted"}, "comparison"}``; a record
+has ``success, protective_stop, termination_reason, max_contact_force, mean_contact_force,
+max_contact_force_xyz, mean_contact_force_xyz, steps`` and the task's metrics, plus ``trace``
+(per step: t, contact force, ee pose, action) with ``--trace``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "FORCE_KEYS",
+    "load_policy",
+    "rollout",
+    "evaluate_policy",
+    "demonstration_records",
+    "summarize",
+    "compare",
+    "add_arguments",
+    "run",
+]
+
+#: the per-episode force figures (env ``info`` keys) compared between demonstration and reproduction
+FORCE_KEYS = ("max_contact_force", "mean_contact_force", "max_contact_force_xyz", "mean_contact_force_xyz")
+
+
+def _json(v: Any) -> Any:
+    if isinstance(v, dict):
+        return {str(k): _json(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_json(x) for x in v]
+    if isinstance(v, np.ndarray):
+        return _json(v.tolist())
+    if isinstance(v, (np.bool_, bool)):
+        return bool(v)
+    if isinstance(v, (np.integer, int)):
+        return int(v)
+    if isinstance(v, (np.floating, float)):
+        return float(v)
+    return v
+
+
+def load_policy(path: str | Path, device: str = "cpu"):
+    """(policy, preprocessor, postprocessor) of a checkpoint folder, as ``lerobot-eval`` builds them."""
+    from lerobot.configs.policies import PreTrainedConfig
+    from lerobot.policies.factory import get_policy_class, make_pre_post_processors
+
+    import lerobot_policy_forcemap  # noqa: F401  (registers the forcemap policy and env types)
+
+    path = Path(path)
+    if not (path / "config.json").is_file():
+        raise ValueError(f"--policy {path}: no config.json (pass a checkpoint's pretrained_model folder)")
+    cfg = PreTrainedConfig.from_pretrained(path)
+    cfg.device = device
+    cfg.pretrained_path = path
+    policy = get_policy_class(cfg.type).from_pretrained(path, config=cfg)
+    pre, post = make_pre_post_processors(
+        cfg,
+        pretrained_path=str(path),
+        preprocessor_overrides={"device_processor": {"device": device}},
+    )
+    return policy, pre, post
+
+
+def rollout(
+    env, policy, pre, post, seed: int, *, trace: bool = False, frames: list | None = None
+) -> dict[str, Any]:
+    """One episode; returns its record. ``frames``: a list that collects ``env.render()`` images."""
+    import torch
+    from lerobot.envs.utils import preprocess_observation
+
+    from lerobot_forcemap import layout
+
+    base = env.unwrapped
+    obs, info = env.reset(seed=seed)
+    policy.reset()
+    steps = 0
+    rows: list[list[float]] = []
+    if frames is not None:
+        frames.append(env.render())
+    terminated = truncated = False
+    t0 = time.perf_counter()
+    while not (terminated or truncated):
+        batch = preprocess_observation(obs)
+        batch["task"] = [base.task_description]
+        batch = pre(batch)
+        with torch.inference_mode():
+            action = policy.select_action(batch)
+        action = post(action)
+        a = action.detach().cpu().numpy().reshape(-1)
+        if trace:
+            rows.append(
+                [
+                    steps / base.metadata["render_fps"],
+                    *info["contact_force"],
+                    *obs[layout.ENV_EE_POSE],
+                    *a.tolist(),
+                ]
+            )
+        obs, _, terminated, truncated, info = env.step(a.astype(np.float32))
+        steps += 1
+        if frames is not None:
+            frames.append(env.render())
+    record = {
+        "seed": int(seed),
+        "success": bool(info["is_success"]),
+        "protective_stop": bool(info["protective_stop"]),
+        "termination_reason": info.get("termination_reason") or ("time_limit" if truncated else ""),
+        "steps": steps,
+        "wall_s": time.perf_counter() - t0,
+        **{k: _json(info[k]) for k in FORCE_KEYS},
+    }
+    skip = {"is_success", "protective_stop", "termination_reason", "contact_force", *FORCE_KEYS}
+    record["metrics"] = {
+        k: _json(v)
+        for k, v in info.items()
+        if k not in skip and not k.startswith("clip_") and np.ndim(v) == 0
+    }
+    if trace:
+        record["trace"] = {
+            "columns": [
+                "t",
+                "fx",
+                "fy",
+                "fz",
+                "x",
+                "y",
+                "z",
+                "qw",
+                "qx",
+                "qy",
+                "qz",
+                "target_x",
+                "target_y",
+                "target_z",
+                "target_qw",
+                "target_qx",
+                "target_qy",
+                "target_qz",
+                "gripper",
+            ],
+            "rows": _json(np.asarray(rows)),
+            "environment_state": _json(obs[layout.ENV_STATE]) if layout.ENV_STATE in obs else None,
+            "environment_state_names": list(base.state_names.get(layout.ENV_STATE, ())),
+        }
+    return record
+
+
+def evaluate_policy(
+    policy_path: str | Path,
+    task: str,
+    episodes: int,
+    seed: int,
+    *,
+    trace: bool = False,
+    video_dir: str | Path | None = None,
+    n_videos: int = 1,
+    device: str = "cpu",
+    progress: bool = True,
+) -> list[dict[str, Any]]:
+    """Records of ``episodes`` episodes (seeds seed .. seed+episodes-1); videos of the first ``n_videos``."""
+    from tqdm.auto import tqdm
+
+    from lerobot_forcemap.envs import make
+
+    if episodes < 1:
+        raise ValueError(f"--episodes must be >= 1, got {episodes}")
+    policy, pre, post = load_policy(policy_path, device)
+    want_video = video_dir is not None and n_videos > 0
+    env = make(task, render_mode="rgb_array" if want_video else None)
+    records = []
+    try:
+        for i in tqdm(range(episodes), desc=f"eval {task}", unit="episode", disable=not progress):
+            frames = [] if want_video and i < n_videos else None
+            rec = rollout(env, policy, pre, post, seed + i, trace=trace, frames=frames)
+            rec["episode"] = i
+            if frames:
+                rec["video"] = str(
+                    write_video(frames, Path(video_dir) / f"eval_episode_{i}.mp4", env.metadata["render_fps"])
+                )
+            records.append(rec)
+    finally:
+        env.close()
+    return records
+
+
+def write_video(frames: Sequence[np.ndarray], path: Path, fps: float) -> Path:
+    import imageio.v2 as imageio
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with imageio.get_writer(str(path), fps=fps, codec="libx264", macro_block_size=1) as writer:
+        for f in frames:
+            writer.append_data(np.asarray(f))
+    return path
+
+
+# ---- demonstrations -------------------------------------------------------------------------------------
+
+
+def demonstration_records(dataset: str | Path, *, trace: bool = False) -> tuple[list[dict[str, Any]], str]:
+    """Per-episode force figures of the demonstrations in a dataset; returns (records, source).
+
+    Source ``meta/forcemap_episodes.json`` (written by ``forcemap record``: the env's own statistics,
+    comparable to eval records), else the dataset's ``contact_force`` column, else the wrist force
+    ``observation.force`` (both at the dataset's frame rate, so maxima may read lower). ``trace``
+    adds per-frame rows ``t, fx, fy, fz, x, y, z, target_x, target_y, target_z`` and the episode's
+    first environment state.
+    """
+    from lerobot_forcemap import layout
+
+    root = Path(dataset)
+    meta_file = root / "meta" / "forcemap_episodes.json"
+    records: list[dict[str, Any]] = []
+    source = ""
+    if meta_file.is_file():
+        data = json.loads(meta_file.read_text())
+        for i, ep in enumerate(data.get("episodes", [])):
+            records.append(
+                {
+                    "episode": i,
+                    "seed": ep.get("seed"),
+                    "success": bool(ep.get("is_success", True)),
+                    "protective_stop": bool(ep.get("protective_stop", False)),
+                    **{k: ep[k] for k in FORCE_KEYS if k in ep},
+                }
+            )
+        source = str(meta_file)
+    need_table = trace or not records
+    if need_table:
+        table, names = _read_table(root)
+        ep_col = table["episode_index"].astype(int)
+        force_key = layout.CONTACT_FORCE if layout.CONTACT_FORCE in table else layout.OBS_FORCE
+        if not records:
+            source = f"{root} column {force_key!r} (frame rate)"
+        for e in np.unique(ep_col):
+            rows = ep_col == e
+            f = table[force_key][rows][:, :3].astype(float)
+            if len(records) <= e:
+                n = np.linalg.norm(f, axis=1)
+                records.append(
+                    {
+                        "episode": int(e),
+                        "success": True,
+                        "protective_stop": False,
+                        "max_contact_force": float(n.max()),
+                        "mean_contact_force": float(n.mean()),
+                        "max_contact_force_xyz": np.abs(f).max(axis=0).tolist(),
+                        "mean_contact_force_xyz": np.abs(f).mean(axis=0).tolist(),
+                    }
+                )
+            if trace:
+                t = table["timestamp"][rows].astype(float).reshape(-1)
+                ee = table[layout.OBS_EE_POSE][rows][:, :3].astype(float)
+                act = table[layout.ACTION][rows][:, :3].astype(float)
+                env_state = table[layout.OBS_ENV_STATE][rows][0] if layout.OBS_ENV_STATE in table else None
+                records[int(e)]["trace"] = {
+                    "columns": ["t", "fx", "fy", "fz", "x", "y", "z", "target_x", "target_y", "target_z"],
+                    "rows": _json(np.column_stack([t - t[0], f, ee, act])),
+                    "environment_state": _json(env_state) if env_state is not None else None,
+                    "environment_state_names": names,
+                    "force_source": force_key,
+                }
+    return records, source
+
+
+def _read_table(root: Path) -> tuple[dict[str, np.ndarray], list[str]]:
+    """Numeric 1-D features of a LeRobot v3 dataset as ``{key: (rows, width)}`` (episode_index,
+    timestamp, frame_index as ``(rows,)``), read with pyarrow (no video decoding); + env-state names."""
+    import pyarrow.parquet as pq
+
+    files = sorted((root / "data").glob("*/*.parquet"))
+    if not files:
+        raise ValueError(f"{root}: no data/*/*.parquet (not a LeRobot v3 dataset)")
+    features = json.loads((root / "meta" / "info.json").read_text())["features"]
+    keys = [
+        k
+        for k, ft in features.items()
+        if ft["dtype"] not in ("image", "video", "string", "language") and len(ft["shape"]) == 1
+    ]
+    parts: dict[str, list[np.ndarray]] = {k: [] for k in keys}
+    for path in files:
+        table = pq.read_table(path, columns=[k for k in keys])
+        for k in keys:
+            values = table.column(k).to_numpy(zero_copy_only=False)
+            arr = np.stack(values) if values.dtype == object else values
+            parts[k].append(arr.reshape(len(arr), -1))
+    out = {k: np.concatenate(v) for k, v in parts.items()}
+    for k in ("episode_index", "timestamp", "frame_index"):
+        out[k] = out[k][:, 0]
+    names = list(features.get("observation.environment_state", {}).get("names") or [])
+    return out, names
+
+
+# ---- summaries --------------------------------------------------------------------------------------------
+
+
+def summarize(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """n, success rate, protective stops, and mean/std of the force figures over episodes."""
+    if not records:
+        return {"n": 0}
+    out: dict[str, Any] = {
+        "n": len(records),
+        "success_rate": float(np.mean([r["success"] for r in records])),
+        "protective_stops": int(sum(r["protective_stop"] for r in records)),
+    }
+    for k in FORCE_KEYS:
+        v = np.array([r[k] for r in records if k in r], dtype=float)
+        if len(v):
+            out[k] = {"mean": _json(v.mean(axis=0)), "std": _json(v.std(axis=0)), "max": _json(v.max(axis=0))}
+    return out
+
+
+def compare(reproduction: dict[str, Any], demonstration: dict[str, Any]) -> dict[str, Any]:
+    """% change of the mean force figures, reproduction vs demonstration (negative = less force)."""
+    out = {}
+    for k in FORCE_KEYS:
+        if k in reproduction and k in demonstration:
+            r = np.asarray(reproduction[k]["mean"], dtype=float)
+            d = np.asarray(demonstration[k]["mean"], dtype=float)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                out[k + "_change_pct"] = _json(np.where(d != 0, 100.0 * (r - d) / d, np.nan))
+    return out
+
+
+def evaluation_document(
+    policy_path: str | Path,
+    task: str,
+    seed: int,
+    records: list[dict[str, Any]],
+    dataset: str | Path | None,
+    *,
+    demo_trace: bool = False,
+) -> dict[str, Any]:
+    """The eval JSON document (module docstring)."""
+    doc: dict[str, Any] = {
+        "task": task,
+        "policy": str(policy_path),
+        "seed": int(seed),
+        "episodes": records,
+        "summary": summarize(records),
+    }
+    fitted = _fitted_episodes(policy_path)
+    if dataset is not None:
+        demos, source = demonstration_records(dataset, trace=demo_trace)
+        used = [d for d in demos if d["episode"] in fitted] if fitted else []
+        doc["demonstrations"] = {
+            "dataset": str(dataset),
+            "source": source,
+            "fitted_episodes": fitted,
+            "episodes": demos,
+            "summary_all": summarize(demos),
+            "summary_fitted": summarize(used),
+        }
+        ref = doc["demonstrations"]["summary_fitted"] if used else doc["demonstrations"]["summary_all"]
+        doc["comparison"] = {
+            "against": "fitted demonstrations" if used else "all demonstrations",
+            **compare(doc["summary"], ref),
+            "vs_all_demonstrations": compare(doc["summary"], doc["demonstrations"]["summary_all"]),
+        }
+    return _json(doc)
+
+
+def _fitted_episodes(policy_path: str | Path) -> list[int]:
+    try:
+        cfg = json.loads((Path(policy_path) / "config.json").read_text())
+    except (OSError, json.JSONDecodeError):
+        return []
+    return [int(e) for e in cfg.get("episodes", [])] if cfg.get("type") == "forcemap" else []
+
+
+def _dataset_from_train_config(policy_path: Path) -> Path | None:
+    path = policy_path / "train_config.json"
+    if not path.is_file():
+        return None
+    root = json.loads(path.read_text()).get("dataset", {}).get("root")
+    return Path(root) if root and Path(root).is_dir() else None
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--policy", required=True, help="checkpoint folder (config.json + model.safetensors)")
+    parser.add_argument("--task", required=True, help="sim task: press, erase, peg_in_hole, ...")
+    parser.add_argument("--episodes", type=int, default=20, help="number of episodes (default 20)")
+    parser.add_argument("--seed", type=int, default=1000, help="env seed of the first episode (default 1000)")
+    parser.add_argument("--json", required=True, help="output JSON file")
+    parser.add_argument(
+        "--dataset",
+        default=None,
+        help="demonstration dataset for the comparison (default: the checkpoint's train_config.json dataset, if any)",
+    )
+    parser.add_argument("--trace", action="store_true", help="store per-step force / pose / action traces")
+    parser.add_argument(
+        "--video-dir", default=None, help="write mp4 videos of the first --videos episodes here"
+    )
+    parser.add_argument("--videos", type=int, default=1)
+    parser.add_argument("--device", default="cpu")
+
+
+def run(args: argparse.Namespace) -> int:
+    records = evaluate_policy(
+        args.policy,
+        args.task,
+        args.episodes,
+        args.seed,
+        trace=args.trace,
+        video_dir=args.video_dir,
+        n_videos=args.videos,
+        device=args.device,
+    )
+    dataset = args.dataset or _dataset_from_train_config(Path(args.policy))
+    doc = evaluation_document(args.policy, args.task, args.seed, records, dataset, demo_trace=args.trace)
+    out = Path(args.json)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(doc, indent=1))
+    s = doc["summary"]
+    print(
+        f"{args.task}: success {100 * s['success_rate']:.0f}% of {s['n']}, protective stops {s['protective_stops']}, "
+        f"max force {s['max_contact_force']['mean']:.1f} N, mean force {s['mean_contact_force']['mean']:.2f} N"
+    )
+    if "comparison" in doc:
+        c = doc["comparison"]
+        print(
+            f"vs {c['against']}: max force {c['max_contact_force_change_pct']:+.0f}%, "
+            f"mean force {c['mean_contact_force_change_pct']:+.0f}%"
+        )
+    print(f"wrote {out}")
+    return 0

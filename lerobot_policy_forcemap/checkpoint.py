@@ -1,0 +1,114 @@
+"""What a forcemap checkpoint must contain, and checks that fail with the file and the field named.
+
+A checkpoint is LeRobot's ``config.json`` (draccus, JSON) and ``model.safetensors`` (tensors): nothing
+is unpickled. Every tensor's shape follows from fitted fields of the config (LeRobot builds the
+policy from ``config.json`` and then loads the tensors into it), so a mismatch between the two files
+is caught before loading, by reading the safetensors header only.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .configuration_forcemap import ForceMapConfig
+
+__all__ = [
+    "TENSOR_DTYPE",
+    "DUMMY_PARAMETER",
+    "expected_tensors",
+    "check_safetensors_file",
+    "check_skill_values",
+]
+
+#: fitted arrays are stored in float64 (bit-exact round trips, no float32 rounding of node positions)
+TENSOR_DTYPE = "F64"
+#: the one parameter LeRobot's optimiser needs (SPEC §5 / notes §7); its value is never used
+DUMMY_PARAMETER = "closed_form_dummy"
+
+
+def expected_tensors(config: ForceMapConfig) -> dict[str, tuple[tuple[int, ...], str, str]]:
+    """``{tensor name: (shape, safetensors dtype, where the shape comes from)}`` for a fitted config."""
+    n = int(sum(config.segment_n_nodes))
+    g = int(sum(config.segment_n_gripper_nodes))
+    s = int(config.n_segments)
+    arm = "sum(segment_n_nodes)"
+    grip = "sum(segment_n_gripper_nodes)"
+    return {
+        "nodes": ((n, 3), TENSOR_DTYPE, f"({arm}, 3)"),
+        "node_times": ((n,), TENSOR_DTYPE, f"({arm},)"),
+        "orientations": ((n, 4), TENSOR_DTYPE, f"({arm}, 4)"),
+        "gripper_nodes": ((g, 1), TENSOR_DTYPE, f"({grip}, 1)"),
+        "gripper_node_times": ((g,), TENSOR_DTYPE, f"({grip},)"),
+        "durations": ((s,), TENSOR_DTYPE, "(n_segments,)"),
+        "anchor_poses": ((s, 7), TENSOR_DTYPE, "(n_segments, 7)"),
+        DUMMY_PARAMETER: ((1,), "F32", "(1,)"),
+    }
+
+
+def check_safetensors_file(path: str | Path, config: ForceMapConfig) -> None:
+    """Raise ``ValueError`` (naming ``path`` and the tensor) unless the file matches ``config``.
+
+    Reads the header only: unreadable or truncated files, missing or unexpected tensors, wrong
+    shapes (with the config fields the shape derives from) and wrong dtypes are all reported.
+    """
+    from safetensors import SafetensorError, safe_open
+
+    path = Path(path)
+    if not config.is_fitted:
+        raise ValueError(
+            f"{path.parent / 'config.json'}: n_segments is 0, so this is not a fitted forcemap checkpoint "
+            "(fit one with `lerobot-train --policy.type=forcemap --steps=1 ...` or `forcemap fit`)"
+        )
+    if not path.is_file():
+        raise ValueError(
+            f"{path}: file not found (a forcemap checkpoint needs model.safetensors next to config.json)"
+        )
+    try:
+        with safe_open(str(path), framework="pt") as f:
+            found = {k: (tuple(f.get_slice(k).get_shape()), f.get_slice(k).get_dtype()) for k in f.keys()}  # noqa: SIM118
+    except (SafetensorError, OSError, ValueError) as err:
+        raise ValueError(f"{path}: not a readable safetensors file ({err})") from err
+    want = expected_tensors(config)
+    missing = sorted(set(want) - set(found))
+    if missing:
+        raise ValueError(f"{path}: missing tensor(s) {missing}; a forcemap checkpoint has {sorted(want)}")
+    unexpected = sorted(set(found) - set(want))
+    if unexpected:
+        raise ValueError(
+            f"{path}: unexpected tensor(s) {unexpected}; a forcemap checkpoint has {sorted(want)}"
+        )
+    for name, (shape, dtype, rule) in want.items():
+        got_shape, got_dtype = found[name]
+        if got_shape != shape:
+            raise ValueError(
+                f"{path}: tensor {name!r} has shape {got_shape}, but config.json implies {shape} = {rule} "
+                f"(n_segments={config.n_segments}, segment_n_nodes={list(config.segment_n_nodes)}, "
+                f"segment_n_gripper_nodes={list(config.segment_n_gripper_nodes)}); the two files do not belong together"
+            )
+        if got_dtype != dtype:
+            raise ValueError(f"{path}: tensor {name!r} has dtype {got_dtype}, expected {dtype}")
+
+
+def check_skill_values(arrays: dict[str, np.ndarray], config: ForceMapConfig, source: str) -> None:
+    """Raise ``ValueError`` naming ``source`` and the field for non-finite or inconsistent fitted values."""
+    for name, a in arrays.items():
+        bad = ~np.isfinite(a)
+        if bad.any():
+            raise ValueError(
+                f"{source}: tensor {name!r} has {int(bad.sum())} non-finite value(s), first at {np.argwhere(bad)[0].tolist()}"
+            )
+    offsets = {"node_times": config.segment_n_nodes, "gripper_node_times": config.segment_n_gripper_nodes}
+    for name, sizes in offsets.items():
+        for s, part in enumerate(np.split(arrays[name], np.cumsum(sizes)[:-1])):
+            if np.any(np.diff(part) < 0):
+                raise ValueError(f"{source}: tensor {name!r} decreases within segment {s}")
+    if np.any(arrays["durations"] <= 0):
+        raise ValueError(f"{source}: tensor 'durations' must be > 0, got {arrays['durations'].tolist()}")
+    norms = np.linalg.norm(arrays["orientations"], axis=1)
+    if np.any(np.abs(norms - 1.0) > 1e-6):
+        i = int(np.argmax(np.abs(norms - 1.0)))
+        raise ValueError(
+            f"{source}: tensor 'orientations' row {i} is not a unit quaternion (norm {norms[i]:.6g})"
+        )

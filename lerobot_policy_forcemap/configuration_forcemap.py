@@ -1,0 +1,344 @@
+"""Configuration of the ``forcemap`` policy (SPEC §5): segment a demonstration, fit a force-constrained
+elastic map per segment, reproduce it with endpoints re-anchored to the robot and the objects.
+
+Registered as ``forcemap`` with LeRobot's ``PreTrainedConfig`` choice registry, so
+``lerobot-train --policy.type=forcemap`` and ``--policy.<field>=...`` flags work once
+``lerobot_policy_forcemap`` is imported (LeRobot's plugin discovery does that by distribution name).
+
+Three groups of fields:
+
+- what to learn from: feature keys, ``episodes``, segmentation settings, elastic-map parameters
+  (global, with optional per-segment overrides), anchoring settings;
+- fitted sizes, filled in by the fit (``fps``, ``n_segments``, ``segment_n_nodes``, ...): every
+  tensor of the checkpoint takes its shape from them, so a checkpoint loads without the dataset
+  (LeRobot loads ``model.safetensors`` into a policy built from ``config.json`` alone);
+- LeRobot plumbing (identity normalisation: the policy works in SI units; no optimiser to speak of).
+
+Units: metres, seconds, newtons. ``stiffness`` k (N/m) is the Hooke's-law constant of the force
+points: a map node in steady contact with force F is lifted by F/k along the force (SPEC §1).
+With a compliant controller of stiffness K the demonstrated target sat F/K behind the contact, so
+reproducing targets lifted by F/k leaves a force F·(1 − K/k): k = K removes all of it (a spring
+button then no longer clicks), k → ∞ none. The default k = 3000 N/m = 1.5 × the simulated UR5e's
+2000 N/m Cartesian impedance keeps one third of a steady demonstrated force. For a stiff,
+position-controlled arm (real UR5e data, positions = measured poses) use the elastic map's own
+default 15000 N/m (``lerobot_forcemap.elmap.DEFAULT_STIFFNESS``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+
+from lerobot.configs import NormalizationMode, PreTrainedConfig
+from lerobot.optim import SGDConfig
+
+from lerobot_forcemap import layout
+
+__all__ = ["ForceMapConfig", "ELMAP_PARAMS", "GRIPPER_PARAMS", "SEGMENT_SOURCES", "DEFAULT_STREAM_WEIGHTS"]
+
+#: elastic-map parameters of the arm map that ``segment_overrides`` may change per segment
+ELMAP_PARAMS = (
+    "lam",
+    "mu",
+    "delta",
+    "f_contact",
+    "stiffness",
+    "rho_max",
+    "force_limit",
+    "n_nodes",
+    "time_scale",
+)
+#: gripper-map parameters that ``segment_overrides`` may change per segment
+GRIPPER_PARAMS = ("gripper_lam", "gripper_mu", "gripper_delta", "gripper_f_contact", "gripper_stiffness")
+SEGMENT_SOURCES = ("auto", "dataset", "none")
+#: segmentation streams (names as in ``lerobot_forcemap.data.segment``) and their default weights
+DEFAULT_STREAM_WEIGHTS = {
+    "position": 1.0,
+    "wrist_force": 1.0,
+    "joints": 1.0,
+    "gripper": 1.0,
+    "finger_force": 1.0,
+}
+#: the authors' UR5e thresholds (SPEC §2); finger force takes the wrist force's
+DEFAULT_STREAM_THRESHOLDS = {
+    "position": 0.25,
+    "wrist_force": 0.15,
+    "joints": 0.20,
+    "gripper": 0.10,
+    "finger_force": 0.15,
+}
+#: the authors' segmentation window: 64 samples at the lab recorder's ~166 Hz
+AUTHORS_WINDOW_S = 64 / 166.0
+
+
+@PreTrainedConfig.register_subclass("forcemap")
+@dataclass
+class ForceMapConfig(PreTrainedConfig):
+    """Configuration of :class:`~lerobot_policy_forcemap.modeling_forcemap.ForceMapPolicy`.
+
+    Features (keys of the dataset / observation; layouts from ``lerobot_forcemap.layout``):
+        pose_key: where positions and orientations come from, ``[x y z qw qx qy qz ...]``. Default
+            ``action`` (the commanded absolute target): with a compliant controller the measured
+            pose (``observation.ee_pose``) lags the command by F/K in contact, and reproducing it
+            undershoots the demonstrated contact (a pressed button would not click).
+        force_key: wrist wrench, first 3 entries used (N, base frame, reaction on the robot).
+        gripper_key / gripper_index: gripper coordinate (0 open .. 1 closed); default the command
+            ``action[7]``.
+        finger_force_key: fingertip forces; used for the gripper map's force points when present.
+        robot_pose_key: the current end-effector pose at reset (start re-anchoring).
+        env_state_key: object poses (names ``<obj>_x <obj>_y <obj>_z [<obj>_qw .. <obj>_qz]``).
+        joints_key: joint positions for the ``joints`` segmentation stream (gripper entry dropped).
+
+    Segmentation:
+        segments: "auto" (segment with the streams below), "dataset" (the per-frame integer labels of
+            the dataset column ``segment_column``: ``segment_index`` as written by ``forcemap segment``,
+            or e.g. the recorder's ground-truth ``demo_phase``), "none" (one segment).
+        stream_weights / stream_thresholds: per stream name (position, wrist_force, joints, gripper,
+            finger_force); weight 0 drops a stream; a stream whose feature is missing is skipped.
+        segmentation_window_s: window in seconds, converted to samples at the dataset fps (the
+            authors' 64 samples at ~166 Hz = 0.385 s); min_run = window, grace scaled likewise.
+        segmentation_mode, changepoints, segmentation_seed, min_segment_s: see
+            ``lerobot_forcemap.segmentation.SegmentationConfig``.
+
+    Elastic maps (per segment; ``segment_overrides`` {segment index: {param: value}} changes any of
+    ``ELMAP_PARAMS`` / ``GRIPPER_PARAMS`` for one segment):
+        n_nodes: nodes per segment; None: ``nodes_per_second`` × duration (at least ``min_nodes``).
+        lam, mu, delta (m), f_contact (N), stiffness (N/m), rho_max, force_limit (N or None).
+        time_scale (m/s): > 0 fits a space-time map, time as a 4th coordinate scaled by this speed
+            (no force on it). Beyond the paper: a segment whose path retraces itself (press down,
+            lift back up) makes nearest-node clustering mix the two passes and the time law collapse;
+            the time coordinate keeps them apart. 0 gives the paper's 3-D map.
+        gripper_*: the same for the 1-D gripper map (delta in gripper units, stiffness in N per
+            unit of closure); finger forces push the gripper coordinate towards "open".
+
+    Anchoring at reset:
+        anchor_radius: a segment whose demonstrated positions come within this distance (m) of a
+            static object is stored in that object's frame and moves with it.
+        static_tolerance: objects moving more than this (m) during a demonstration (carried
+            objects) are never anchors.
+        reanchor: False replays the demonstration in the base frame (an ablation).
+
+    Learning: ``episodes`` to learn from (default ``[0]``: one shot); several are mapped together
+    segment by segment (their segment counts must agree).
+
+    Fitted (filled in by the fit; leave at their defaults when configuring): fps, n_segments,
+    segment_n_nodes, segment_n_gripper_nodes, segment_anchors, env_state_names.
+    """
+
+    # ---- features
+    pose_key: str = layout.ACTION
+    force_key: str = layout.OBS_FORCE
+    gripper_key: str = layout.ACTION
+    gripper_index: int = layout.ACTION_GRIPPER
+    finger_force_key: str = layout.OBS_FINGER_FORCE
+    robot_pose_key: str = layout.OBS_EE_POSE
+    env_state_key: str = layout.OBS_ENV_STATE
+    joints_key: str = layout.OBS_STATE
+
+    # ---- what to learn from
+    episodes: list[int] = field(default_factory=lambda: [0])
+
+    # ---- segmentation
+    segments: str = "auto"
+    segment_column: str = layout.SEGMENT_INDEX
+    stream_weights: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_STREAM_WEIGHTS))
+    stream_thresholds: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_STREAM_THRESHOLDS))
+    segmentation_window_s: float = AUTHORS_WINDOW_S
+    segmentation_mode: str = "geometric"
+    changepoints: str = "peaks"
+    segmentation_seed: int = 0
+    min_segment_s: float | None = None
+
+    # ---- arm elastic map
+    n_nodes: int | None = None
+    nodes_per_second: float = 10.0
+    min_nodes: int = 5
+    lam: float = 0.01
+    mu: float = 0.01
+    delta: float = 0.01
+    f_contact: float = 2.0
+    stiffness: float = 3000.0
+    rho_max: float | None = 0.75
+    force_limit: float | None = None
+    time_scale: float = 0.05
+    max_iter: int = 100
+
+    # ---- gripper elastic map
+    gripper_lam: float = 0.01
+    gripper_mu: float = 0.01
+    gripper_delta: float = 0.05
+    gripper_f_contact: float = 0.5
+    gripper_stiffness: float = 400.0
+
+    segment_overrides: dict[int, dict[str, float]] = field(default_factory=dict)
+
+    # ---- anchoring
+    anchor_radius: float = 0.05
+    static_tolerance: float = 0.005
+    reanchor: bool = True
+
+    # ---- action chunks (predict_action_chunk)
+    chunk_size: int = 10
+
+    # ---- fitted: sizes of every buffer (filled in by the fit)
+    fps: float = 0.0
+    n_segments: int = 0
+    segment_n_nodes: list[int] = field(default_factory=list)
+    segment_n_gripper_nodes: list[int] = field(default_factory=list)
+    segment_anchors: list[str] = field(default_factory=list)
+    env_state_names: list[str] = field(default_factory=list)
+
+    # ---- LeRobot plumbing
+    normalization_mapping: dict[str, NormalizationMode] = field(
+        default_factory=lambda: {
+            "VISUAL": NormalizationMode.IDENTITY,
+            "STATE": NormalizationMode.IDENTITY,
+            "ENV": NormalizationMode.IDENTITY,
+            "ACTION": NormalizationMode.IDENTITY,
+        }
+    )
+    push_to_hub: bool = False  # LeRobot's default True fails validation without a repo_id
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        self.validate_parameters()
+
+    # ---- checks -----------------------------------------------------------------------------------
+    def validate_parameters(self) -> None:
+        """Raise ``ValueError`` naming the field for any out-of-range setting."""
+
+        def need(ok: bool, name: str, what: str) -> None:
+            if not ok:
+                raise ValueError(f"ForceMapConfig.{name}: {what}, got {getattr(self, name)!r}")
+
+        need(self.n_obs_steps == 1, "n_obs_steps", "the forcemap policy reads one observation (1)")
+        need(self.segments in SEGMENT_SOURCES, "segments", f"must be one of {SEGMENT_SOURCES}")
+        need(
+            isinstance(self.episodes, list)
+            and len(self.episodes) > 0
+            and all(int(e) >= 0 for e in self.episodes),
+            "episodes",
+            "a non-empty list of episode indices >= 0",
+        )
+        need(len(set(self.episodes)) == len(self.episodes), "episodes", "episode indices must be distinct")
+        unknown = sorted(set(self.stream_weights) - set(DEFAULT_STREAM_WEIGHTS))
+        need(
+            not unknown,
+            "stream_weights",
+            f"unknown stream(s) {unknown}; known {sorted(DEFAULT_STREAM_WEIGHTS)}",
+        )
+        need(all(v >= 0 for v in self.stream_weights.values()), "stream_weights", "weights must be >= 0")
+        unknown = sorted(set(self.stream_thresholds) - set(DEFAULT_STREAM_THRESHOLDS))
+        need(not unknown, "stream_thresholds", f"unknown stream(s) {unknown}")
+        need(self.segmentation_window_s > 0, "segmentation_window_s", "must be > 0 s")
+        need(self.min_segment_s is None or self.min_segment_s > 0, "min_segment_s", "must be None or > 0 s")
+        need(self.n_nodes is None or int(self.n_nodes) >= 3, "n_nodes", "must be None or >= 3")
+        need(self.nodes_per_second > 0, "nodes_per_second", "must be > 0")
+        need(int(self.min_nodes) >= 3, "min_nodes", "must be >= 3")
+        for name in (
+            "lam",
+            "mu",
+            "delta",
+            "f_contact",
+            "gripper_lam",
+            "gripper_mu",
+            "gripper_delta",
+            "gripper_f_contact",
+        ):
+            need(getattr(self, name) >= 0, name, "must be >= 0")
+        need(self.time_scale >= 0, "time_scale", "must be >= 0 m/s")
+        for name in ("stiffness", "gripper_stiffness", "anchor_radius", "static_tolerance"):
+            need(getattr(self, name) > 0, name, "must be > 0")
+        need(self.rho_max is None or 0 < self.rho_max < 1, "rho_max", "must be None or in (0, 1)")
+        need(self.force_limit is None or self.force_limit > 0, "force_limit", "must be None or > 0 N")
+        need(int(self.chunk_size) >= 1, "chunk_size", "must be >= 1")
+        need(self.max_iter >= 1, "max_iter", "must be >= 1")
+        allowed = set(ELMAP_PARAMS) | set(GRIPPER_PARAMS)
+        for seg, params in self.segment_overrides.items():
+            bad = sorted(set(params) - allowed)
+            if bad:
+                raise ValueError(
+                    f"ForceMapConfig.segment_overrides[{seg}]: unknown parameter(s) {bad}; allowed {sorted(allowed)}"
+                )
+        # fitted sizes must agree with each other (a hand-edited config.json is caught here)
+        if self.n_segments:
+            for name in ("segment_n_nodes", "segment_n_gripper_nodes", "segment_anchors"):
+                need(
+                    len(getattr(self, name)) == self.n_segments,
+                    name,
+                    f"needs one entry per segment (n_segments={self.n_segments})",
+                )
+            need(
+                all(int(n) >= 3 for n in self.segment_n_nodes),
+                "segment_n_nodes",
+                "every segment needs >= 3 nodes",
+            )
+            need(
+                all(int(n) >= 3 for n in self.segment_n_gripper_nodes),
+                "segment_n_gripper_nodes",
+                "every segment needs >= 3 nodes",
+            )
+            need(self.fps > 0, "fps", "a fitted policy needs the dataset fps > 0")
+            objects = {a for a in self.segment_anchors if a}
+            need(
+                not objects or bool(self.env_state_names),
+                "env_state_names",
+                f"segments are anchored to {sorted(objects)} but no environment-state names are stored",
+            )
+
+    @property
+    def is_fitted(self) -> bool:
+        return self.n_segments > 0
+
+    def segment_params(self, segment: int) -> dict[str, float | int | None]:
+        """Arm and gripper elastic-map parameters of one segment (global values + its overrides)."""
+        params = {name: getattr(self, name) for name in (*ELMAP_PARAMS, *GRIPPER_PARAMS)}
+        params.update(self.segment_overrides.get(segment, {}))
+        return params
+
+    # ---- LeRobot interface --------------------------------------------------------------------------
+    @property
+    def observation_delta_indices(self) -> None:
+        return None
+
+    @property
+    def action_delta_indices(self) -> None:
+        return None
+
+    @property
+    def reward_delta_indices(self) -> None:
+        return None
+
+    def get_optimizer_preset(self) -> SGDConfig:
+        # Closed-form fit: lerobot-train's loop runs, but nothing is learned by gradient.
+        return SGDConfig(lr=0.0, weight_decay=0.0, grad_clip_norm=0.0)
+
+    def get_scheduler_preset(self) -> None:
+        return None
+
+    def validate_features(self) -> None:
+        """Check that the output is the 8-D Cartesian action of ``lerobot_forcemap.layout``."""
+        action = (self.output_features or {}).get(layout.ACTION)
+        if self.output_features and action is None:
+            raise ValueError(
+                f"ForceMapConfig.output_features: needs {layout.ACTION!r}, got {sorted(self.output_features)}"
+            )
+        if action is not None and tuple(action.shape) != (layout.ACTION_DIM,):
+            raise ValueError(
+                f"ForceMapConfig.output_features[{layout.ACTION!r}]: shape {tuple(action.shape)}, expected "
+                f"({layout.ACTION_DIM},) = {list(layout.ACTION_NAMES)}"
+            )
+
+    @classmethod
+    def fitted_field_names(cls) -> tuple[str, ...]:
+        return (
+            "fps",
+            "n_segments",
+            "segment_n_nodes",
+            "segment_n_gripper_nodes",
+            "segment_anchors",
+            "env_state_names",
+        )
+
+    @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        return tuple(f.name for f in fields(cls))

@@ -1,0 +1,360 @@
+"""``ForceMapPolicy``: a LeRobot policy that reproduces one (or a few) demonstrations with
+force-constrained elastic maps (paper §III; SPEC §5).
+
+Closed-form "training" (LeRobot 0.6.1, ``scripts/lerobot_train.py``): ``make_policy`` builds the
+policy with ``dataset_meta``; the constructor then reads the chosen episodes, segments them and fits
+the maps (``fitting.py``), fills the fitted sizes into the config and keeps the result as float64
+persistent buffers, which ``save_pretrained`` writes to ``model.safetensors``. ``lerobot-train
+--policy.type=forcemap --steps=1`` therefore fits and saves a checkpoint; the optimiser sees one
+dummy parameter with learning rate 0. Loading (``from_pretrained``, ``lerobot-eval --policy.path``)
+builds the buffers from the config's fitted sizes and checks the file before reading it.
+
+Acting: ``reset`` forgets the episode; the first ``select_action`` after it places the skill in the
+scene of its observation (robot pose ``observation.ee_pose``, object poses from
+``observation.environment_state``; ``anchoring.py``), one placement per batch element. Each call
+returns the ``[x y z qw qx qy qz gripper]`` target at t = k / fps (k-th call, fps of the dataset,
+which is the env's control rate) and advances k; after the last segment the final pose is held.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from lerobot.policies.pretrained import PreTrainedPolicy
+from torch import Tensor, nn
+
+from .anchoring import object_poses, object_slots, place_skill
+from .checkpoint import DUMMY_PARAMETER, check_safetensors_file, check_skill_values, expected_tensors
+from .configuration_forcemap import ForceMapConfig
+from .episodes import load_episodes
+from .fitting import FitReport, fit_skill
+from .skill import FittedSkill, Reproduction
+
+__all__ = ["ForceMapPolicy"]
+
+logger = logging.getLogger(__name__)
+
+SKILL_TENSORS = (
+    "nodes",
+    "node_times",
+    "orientations",
+    "gripper_nodes",
+    "gripper_node_times",
+    "durations",
+    "anchor_poses",
+)
+
+
+class ForceMapPolicy(PreTrainedPolicy):
+    """Segment -> force-constrained elastic maps -> re-anchored reproduction (module docstring)."""
+
+    config_class = ForceMapConfig
+    name = "forcemap"
+
+    def __init__(
+        self,
+        config: ForceMapConfig,
+        dataset_stats: dict[str, dict[str, Tensor]] | None = None,
+        dataset_meta: Any | None = None,
+        **kwargs: Any,
+    ):
+        super().__init__(config)
+        if not isinstance(config, ForceMapConfig):
+            raise ValueError(f"ForceMapPolicy needs a ForceMapConfig, got {type(config).__name__}")
+        config.validate_features()
+        self.config: ForceMapConfig = config
+        # LeRobot's optimiser refuses an empty parameter list and backward() needs a graph.
+        self.register_parameter(DUMMY_PARAMETER, nn.Parameter(torch.zeros(1)))
+        self.fit_report: FitReport | None = None
+        self._skill: FittedSkill | None = None
+        if dataset_meta is not None and config.pretrained_path is None:
+            self.fit_dataset(
+                str(dataset_meta.repo_id), None if dataset_meta.root is None else str(dataset_meta.root)
+            )
+        else:
+            self._register_skill_buffers(None)
+        self.reset()
+
+    # ---- fitting -------------------------------------------------------------------------------------
+    def fit_dataset(self, repo_id: str, root: str | None) -> FitReport:
+        """Fit from ``config.episodes`` of the LeRobot dataset (repo_id, root); fills the config's fitted fields."""
+        episodes, features, fps = load_episodes(repo_id, root, self.config)
+        env_key = self.config.env_state_key
+        names = list(features[env_key].get("names") or []) if env_key in features else []
+        return self.fit_episodes(episodes, fps, names)
+
+    def fit_episodes(self, episodes: list, fps: float, env_state_names: list[str]) -> FitReport:
+        """Fit from :class:`~lerobot_policy_forcemap.episodes.EpisodeArrays` (no LeRobot dataset needed)."""
+        skill, report = fit_skill(episodes, self.config, fps, env_state_names)
+        cfg = self.config
+        cfg.fps = float(fps)
+        cfg.n_segments = skill.n_segments
+        cfg.segment_n_nodes = [len(s.nodes) for s in skill.segments]
+        cfg.segment_n_gripper_nodes = [len(s.gripper_nodes) for s in skill.segments]
+        cfg.segment_anchors = list(skill.anchors)
+        cfg.env_state_names = list(env_state_names)
+        cfg.validate_parameters()
+        self._register_skill_buffers(skill)
+        self.fit_report = report
+        logger.info(
+            "forcemap fit: %d segment(s), anchors %s, %.3f s", skill.n_segments, skill.anchors, report.seconds
+        )
+        return report
+
+    def _register_skill_buffers(self, skill: FittedSkill | None) -> None:
+        """Persistent float64 buffers with the shapes the config's fitted fields imply (zeros if unfitted)."""
+        device = getattr(self, DUMMY_PARAMETER).device
+        if skill is not None:
+            arrays = skill.flat_arrays()
+            for name in SKILL_TENSORS:
+                self.register_buffer(
+                    name, torch.from_numpy(np.ascontiguousarray(arrays[name])).to(device), persistent=True
+                )
+        else:
+            for name, (shape, _, _) in expected_tensors(self.config).items():
+                if name in SKILL_TENSORS:
+                    self.register_buffer(
+                        name, torch.zeros(shape, dtype=torch.float64, device=device), persistent=True
+                    )
+            if self.config.is_fitted:
+                self.get_buffer("orientations")[:, 0] = 1.0  # unit quaternions until the weights arrive
+        self._skill = skill
+
+    def load_state_dict(self, state_dict, strict: bool = True, assign: bool = False):  # noqa: D102
+        result = super().load_state_dict(state_dict, strict=strict, assign=assign)
+        self._skill = None  # rebuilt from the new buffers on first use
+        self.reset()
+        return result
+
+    @property
+    def skill(self) -> FittedSkill:
+        """The fitted skill (NumPy) built from the buffers."""
+        if not self.config.is_fitted:
+            raise ValueError(
+                "ForceMapPolicy is not fitted: build it with a dataset (lerobot-train --policy.type=forcemap "
+                "--steps=1 ..., `forcemap fit`) or load a checkpoint (from_pretrained / --policy.path)"
+            )
+        if self._skill is None:
+            arrays = {
+                name: self.get_buffer(name).detach().cpu().numpy().astype(np.float64)
+                for name in SKILL_TENSORS
+            }
+            self._skill = FittedSkill.from_flat(
+                arrays,
+                self.config.segment_n_nodes,
+                self.config.segment_n_gripper_nodes,
+                self.config.segment_anchors,
+            )
+        return self._skill
+
+    # ---- loading ---------------------------------------------------------------------------------------
+    @classmethod
+    def from_pretrained(
+        cls, pretrained_name_or_path: str | Path, *, config: ForceMapConfig | None = None, **kwargs
+    ):  # noqa: D102
+        """LeRobot's loader with clear errors: the failing file and field are named."""
+        path = Path(str(pretrained_name_or_path))
+        where = path / "config.json" if path.is_dir() else f"{pretrained_name_or_path} (config.json)"
+        if config is None:
+            from lerobot.configs.policies import PreTrainedConfig
+
+            if path.is_dir():
+                _check_config_json(path / "config.json")
+            try:
+                config = PreTrainedConfig.from_pretrained(
+                    pretrained_name_or_path,
+                    **{
+                        k: kwargs[k]
+                        for k in (
+                            "force_download",
+                            "resume_download",
+                            "proxies",
+                            "token",
+                            "cache_dir",
+                            "local_files_only",
+                            "revision",
+                        )
+                        if k in kwargs
+                    },
+                )
+            except Exception as err:  # draccus' ParsingError/DecodingError, hub errors, our own ValueErrors
+                cause = err.__cause__ or err.__context__
+                detail = f"{err}" + (f" ({cause})" if cause is not None else "")
+                raise ValueError(f"{where}: cannot read the policy config: {detail}") from err
+        if not isinstance(config, ForceMapConfig):
+            raise ValueError(
+                f"{where}: policy type {getattr(config, 'type', type(config).__name__)!r} is not 'forcemap'"
+            )
+        return super().from_pretrained(pretrained_name_or_path, config=config, **kwargs)
+
+    @classmethod
+    def _load_as_safetensor(cls, model: ForceMapPolicy, model_file: str, map_location: str, strict: bool):
+        from lerobot.utils.device_utils import resolve_safetensors_device
+        from safetensors.torch import load_model
+
+        check_safetensors_file(model_file, model.config)
+        load_model(model, model_file, strict=True, device=resolve_safetensors_device(map_location))
+        arrays = {name: model.get_buffer(name).detach().cpu().numpy() for name in SKILL_TENSORS}
+        check_skill_values(arrays, model.config, str(model_file))
+        return model
+
+    # ---- LeRobot interface -----------------------------------------------------------------------------
+    def get_optim_params(self) -> list[nn.Parameter]:
+        return [getattr(self, DUMMY_PARAMETER)]
+
+    def reset(self) -> None:
+        """Start a new episode: the next observation re-anchors the skill."""
+        self._step = 0
+        self._placed: list[Reproduction] | None = None
+
+    def place(self, batch: dict[str, Tensor]) -> list[Reproduction]:
+        """The skill placed in each batch element's scene (robot pose + object poses of the observation)."""
+        cfg, skill = self.config, self.skill
+        n = _batch_size(batch)
+        robot = _rows(batch, cfg.robot_pose_key, n) if cfg.reanchor else None
+        if robot is not None and robot.shape[1] < 7:
+            raise ValueError(
+                f"observation {cfg.robot_pose_key!r}: needs [x y z qw qx qy qz], got width {robot.shape[1]}"
+            )
+        env = None
+        if cfg.reanchor and any(skill.anchors):
+            env = _rows(batch, cfg.env_state_key, n)
+            if env.shape[1] != len(cfg.env_state_names):
+                raise ValueError(
+                    f"observation {cfg.env_state_key!r} has {env.shape[1]} entries, but the policy was fitted on "
+                    f"{len(cfg.env_state_names)} ({cfg.env_state_names})"
+                )
+        slots = object_slots(cfg.env_state_names)
+        placed = []
+        for i in range(n):
+            poses = object_poses(env[i], slots) if env is not None else skill.demo_object_poses()
+            placed.append(
+                place_skill(
+                    skill,
+                    robot_pose=None if robot is None else robot[i, :7],
+                    object_pose=poses,
+                    params_for=cfg.segment_params,
+                )
+            )
+        return placed
+
+    def _ensure_placed(self, batch: dict[str, Tensor]) -> list[Reproduction]:
+        n = _batch_size(batch)
+        if self._placed is None:
+            self._placed = self.place(batch)
+        elif len(self._placed) != n:
+            raise ValueError(
+                f"batch size changed from {len(self._placed)} to {n} within an episode; call reset() between episodes"
+            )
+        return self._placed
+
+    def _actions(self, placed: list[Reproduction], times: np.ndarray, like: Tensor) -> Tensor:
+        out = np.stack([rep.actions_at(times) for rep in placed])  # (B, K, 8)
+        return torch.as_tensor(out, dtype=torch.float32, device=like.device)
+
+    @torch.no_grad()
+    def predict_action_chunk(self, batch: dict[str, Tensor], **kwargs: Any) -> Tensor:
+        """The next ``chunk_size`` targets ``(B, chunk_size, 8)`` from the current time (does not advance it)."""
+        placed = self._ensure_placed(batch)
+        times = (self._step + np.arange(self.config.chunk_size)) / self.config.fps
+        return self._actions(placed, times, _any_tensor(batch))
+
+    @torch.no_grad()
+    def select_action(self, batch: dict[str, Tensor], **kwargs: Any) -> Tensor:
+        """The target ``(B, 8)`` at t = k / fps for the k-th call since ``reset``."""
+        placed = self._ensure_placed(batch)
+        action = self._actions(placed, np.array([self._step / self.config.fps]), _any_tensor(batch))[:, 0]
+        self._step += 1
+        return action
+
+    def forward(self, batch: dict[str, Tensor], reduction: str = "mean") -> tuple[Tensor, dict]:
+        """Diagnostic loss: distance (m) of the demonstrated target positions to the fitted path placed
+        in each sample's scene (objects from its environment state; no gradient flows to the maps)."""
+        cfg, skill = self.config, self.skill
+        if cfg.pose_key not in batch:
+            raise ValueError(f"forward: batch has no {cfg.pose_key!r} (keys: {sorted(batch)})")
+        target = _rows(batch, cfg.pose_key, _batch_size(batch))[:, :3]
+        env = None
+        if any(skill.anchors) and cfg.env_state_key in batch:
+            env = _rows(batch, cfg.env_state_key, len(target))
+        slots = object_slots(cfg.env_state_names)
+        dist = np.empty(len(target))
+        for i, x in enumerate(target):
+            poses = object_poses(env[i], slots) if env is not None else skill.demo_object_poses()
+            path = place_skill(
+                skill, robot_pose=None, object_pose=poses, params_for=cfg.segment_params
+            ).path()
+            dist[i] = float(np.min(np.linalg.norm(path - x, axis=1)))
+        dummy = getattr(self, DUMMY_PARAMETER)
+        per_sample = torch.as_tensor(dist, dtype=dummy.dtype, device=dummy.device) + 0.0 * dummy.sum()
+        loss = per_sample if reduction == "none" else per_sample.mean()
+        return loss, {"map_distance_mm": float(dist.mean() * 1e3), "n_segments": cfg.n_segments}
+
+
+# ---- helpers -------------------------------------------------------------------------------------------
+
+
+def _check_config_json(path: Path) -> None:
+    """Readable JSON object with a string 'type' (LeRobot's own reader reports neither file nor field)."""
+    if not path.is_file():
+        raise ValueError(f"{path}: file not found (a checkpoint folder needs config.json)")
+    try:
+        data = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise ValueError(f"{path}: not valid JSON ({err})") from err
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: expected a JSON object, got {type(data).__name__}")
+    if data.get("type") != "forcemap":
+        raise ValueError(f"{path}: field 'type' is {data.get('type')!r}, expected 'forcemap'")
+    for name in ("n_segments", "segment_n_nodes", "segment_n_gripper_nodes", "segment_anchors", "fps"):
+        if name not in data:
+            raise ValueError(f"{path}: field {name!r} is missing (not a fitted forcemap checkpoint)")
+    for name in ("segment_n_nodes", "segment_n_gripper_nodes"):
+        if not isinstance(data[name], list) or not all(
+            isinstance(v, int) and not isinstance(v, bool) for v in data[name]
+        ):
+            raise ValueError(f"{path}: field {name!r} must be a list of integers, got {data[name]!r}")
+    if not isinstance(data["n_segments"], int) or isinstance(data["n_segments"], bool):
+        raise ValueError(f"{path}: field 'n_segments' must be an integer, got {data['n_segments']!r}")
+
+
+def _any_tensor(batch: dict[str, Any]) -> Tensor:
+    for v in batch.values():
+        if isinstance(v, Tensor):
+            return v
+    raise ValueError(f"batch has no tensors (keys: {sorted(batch)})")
+
+
+def _batch_size(batch: dict[str, Any]) -> int:
+    """Rows of the batched observation tensors. LeRobot's AddBatchDimension step batches only
+    observation.state / environment_state / images, so a 1-D ``observation.ee_pose`` counts as one row."""
+    sizes = {
+        int(v.shape[0])
+        for k, v in batch.items()
+        if isinstance(v, Tensor) and v.ndim >= 2 and str(k).startswith("observation.")
+    }
+    if len(sizes) > 1:
+        raise ValueError(f"observation tensors disagree on the batch size: {sorted(sizes)}")
+    return sizes.pop() if sizes else 1
+
+
+def _rows(batch: dict[str, Any], key: str, n: int) -> np.ndarray:
+    """``batch[key]`` as a float64 (n, width) array; a clear error when missing or non-finite."""
+    if key not in batch:
+        raise ValueError(
+            f"observation {key!r} is missing (keys: {sorted(k for k in batch if isinstance(k, str))})"
+        )
+    value = batch[key]
+    a = np.asarray(value.detach().cpu().numpy() if isinstance(value, Tensor) else value, dtype=np.float64)
+    if a.ndim <= 1 and n != 1:
+        raise ValueError(f"observation {key!r} has no batch dimension but the batch has {n} rows")
+    a = a.reshape(n, -1)
+    if not np.all(np.isfinite(a)):
+        row, col = np.argwhere(~np.isfinite(a))[0]
+        raise ValueError(f"observation {key!r}: non-finite value at batch row {row}, entry {col}")
+    return a

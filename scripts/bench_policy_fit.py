@@ -1,0 +1,127 @@
+"""Benchmark the forcemap policy's one-shot fit: dataset on disk -> saved checkpoint (imports excluded).
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python scripts/bench_policy_fit.py [--dataset datasets/press] [--runs 9] [--no-train]
+
+Times (median of --runs, after one warm-up run that also pays every import):
+- total: ``forcemap fit``'s code path, i.e. ``lerobot-train --policy.type=forcemap --steps=1`` without
+  its data loader / optimiser: ``LeRobotDatasetMetadata`` + ``make_policy`` (reads the episode, segments,
+  fits one arm and one gripper map per segment) + processors + ``save_pretrained`` of all files;
+- its parts: metadata, reading the episode (``LeRobotDataset(episodes=[0]).hf_dataset``), segmentation +
+  maps (``fit_skill``), saving;
+- the same total for a 10-episode fit (``segments=dataset`` on the recorder's ``demo_phase``).
+The baseline measured in the same run is reading the episode through LeRobot alone; the ratio says how
+much the fit adds on top of the unavoidable I/O. With ``--no-train`` omitted, one real
+``lerobot-train --steps=1`` subprocess is timed too (imports included), for scale. Target: total < 1 s.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("HF_HUB_OFFLINE", "1")
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import argparse  # noqa: E402
+import statistics  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+TARGET_S = 1.0
+
+
+def median_ms(fn, runs: int) -> tuple[float, object]:
+    times, out = [], None
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return 1e3 * statistics.median(times), out
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--dataset", default=str(REPO / "datasets" / "press"))
+    parser.add_argument("--runs", type=int, default=9)
+    parser.add_argument("--no-train", action="store_true", help="skip the lerobot-train subprocess")
+    args = parser.parse_args(argv)
+    dataset = Path(args.dataset)
+
+    t_import = time.perf_counter()
+    from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
+
+    from lerobot_forcemap.experiments.fit import fit_policy, make_config
+    from lerobot_policy_forcemap.episodes import load_episodes
+    from lerobot_policy_forcemap.fitting import fit_skill
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
+    t_import = time.perf_counter() - t_import
+    tmp = Path(tempfile.mkdtemp(prefix="bench_policy_fit_"))
+    fit_policy(dataset, tmp / "warmup", overwrite=True)  # warm-up: lazy imports, caches
+
+    cfg = make_config([0])
+    total, res = median_ms(lambda: fit_policy(dataset, tmp / "one", overwrite=True), args.runs)
+    meta_ms, _ = median_ms(lambda: LeRobotDatasetMetadata("local/press", root=dataset), args.runs)
+    read_ms, loaded = median_ms(lambda: load_episodes("local/press", str(dataset), cfg), args.runs)
+    episodes, features, fps = loaded
+    names = list(features["observation.environment_state"]["names"])
+    fit_ms, (skill, report) = median_ms(lambda: fit_skill(episodes, cfg, fps, names), args.runs)
+    policy = res.policy
+    save_ms, _ = median_ms(lambda: policy.save_pretrained(tmp / "save"), args.runs)
+    ten = dict(episodes=list(range(10)), overrides=["segments=dataset", "segment_column=demo_phase"])
+    total10, _ = median_ms(lambda: fit_policy(dataset, tmp / "ten", overwrite=True, **ten), args.runs)
+    assert isinstance(policy, ForceMapPolicy)
+
+    rows = [
+        ("one-shot fit, dataset -> saved checkpoint (total)", total),
+        ("  dataset metadata (LeRobotDatasetMetadata)", meta_ms),
+        ("  read episode 0 (LeRobotDataset.hf_dataset) [baseline]", read_ms),
+        (f"  segmentation + {skill.n_segments} arm + {skill.n_segments} gripper maps (fit_skill)", fit_ms),
+        ("  save_pretrained (config.json + model.safetensors)", save_ms),
+        ("10-episode fit (segments=dataset), dataset -> checkpoint", total10),
+    ]
+    print(
+        f"dataset {dataset}: episode 0 has {episodes[0].n_frames} frames at {fps:g} fps; "
+        f"segments {report.changepoints[0].tolist()}; imports {t_import:.1f} s (excluded)"
+    )
+    print(f"median of {args.runs} runs, OPENBLAS_NUM_THREADS={os.environ['OPENBLAS_NUM_THREADS']}\n")
+    print("| step | median ms | ratio to reading the episode |")
+    print("|---|---|---|")
+    for name, ms in rows:
+        print(f"| {name} | {ms:.1f} | {ms / read_ms:.2f} |")
+    if not args.no_train:
+        t0 = time.perf_counter()
+        out = subprocess.run(
+            [
+                str(Path(sys.executable).parent / "lerobot-train"),
+                "--policy.type=forcemap",
+                "--policy.device=cpu",
+                "--dataset.repo_id=local/press",
+                f"--dataset.root={dataset}",
+                "--steps=1",
+                "--save_freq=1",
+                "--batch_size=4",
+                "--num_workers=0",
+                f"--output_dir={tmp / 'train'}",
+            ],
+            capture_output=True,
+            text=True,
+        )
+        wall = time.perf_counter() - t0
+        status = "ok" if out.returncode == 0 else f"failed ({out.returncode})"
+        print(
+            f"| lerobot-train --steps=1 subprocess, imports included (1 run, {status}) | {1e3 * wall:.0f} | "
+            f"{1e3 * wall / read_ms:.1f} |"
+        )
+    verdict = "meets" if total / 1e3 < TARGET_S else "MISSES"
+    print(f"\none-shot total {total:.0f} ms {verdict} the {TARGET_S:.0f} s target")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

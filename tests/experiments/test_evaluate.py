@@ -1,0 +1,104 @@
+"""``forcemap eval``: per-episode records, the demonstrations' figures, summaries and % change."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from lerobot_forcemap.cli import main
+from lerobot_forcemap.experiments.evaluate import compare, demonstration_records, summarize
+
+
+def test_cli_eval_writes_records_and_demonstrations(press_checkpoint, press_dataset, tmp_path, capsys):
+    out = tmp_path / "eval.json"
+    args = [
+        "eval",
+        "--policy",
+        str(press_checkpoint),
+        "--task",
+        "press",
+        "--episodes",
+        "2",
+        "--seed",
+        "7",
+        "--json",
+        str(out),
+        "--dataset",
+        str(press_dataset),
+        "--trace",
+        "--video-dir",
+        str(tmp_path / "v"),
+    ]
+    assert main(args) == 0
+    assert "success" in capsys.readouterr().out
+    doc = json.loads(out.read_text())
+    assert [r["seed"] for r in doc["episodes"]] == [7, 8]
+    rec = doc["episodes"][0]
+    for key in (
+        "success",
+        "protective_stop",
+        "max_contact_force",
+        "mean_contact_force",
+        "max_contact_force_xyz",
+        "mean_contact_force_xyz",
+        "steps",
+        "trace",
+    ):
+        assert key in rec
+    assert len(rec["max_contact_force_xyz"]) == 3
+    rows = np.asarray(rec["trace"]["rows"])
+    assert rows.shape == (rec["steps"], len(rec["trace"]["columns"]))
+    # the record's max force is the env's (physics-rate) statistic: at least the per-step samples
+    assert rec["max_contact_force"] >= np.linalg.norm(rows[:, 1:4], axis=1).max() - 1e-9
+    assert (tmp_path / "v" / "eval_episode_0.mp4").stat().st_size > 1000
+    demos = doc["demonstrations"]
+    assert demos["fitted_episodes"] == [0] and demos["summary_fitted"]["n"] == 1
+    d0 = demos["episodes"][0]["max_contact_force"]
+    r = doc["summary"]["max_contact_force"]["mean"]
+    assert doc["comparison"]["max_contact_force_change_pct"] == pytest.approx(100 * (r - d0) / d0)
+
+
+def test_demonstration_records_fall_back_to_the_dataset_columns(press_dataset, tmp_path):
+    import shutil
+
+    copy = tmp_path / "press"
+    shutil.copytree(press_dataset, copy)
+    meta, source_meta = demonstration_records(copy)
+    (copy / "meta" / "forcemap_episodes.json").unlink()
+    cols, source = demonstration_records(copy)
+    assert "forcemap_episodes.json" in source_meta and "contact_force" in source
+    assert len(cols) == len(meta)
+    for a, b in zip(meta, cols, strict=True):
+        # frame-rate samples of the same low-passed force: the max is at most the physics-rate max
+        assert b["max_contact_force"] <= a["max_contact_force"] + 1e-6
+        assert b["max_contact_force"] > 0.7 * a["max_contact_force"]
+
+
+def test_summaries_and_change():
+    recs = [
+        {
+            "success": True,
+            "protective_stop": False,
+            "max_contact_force": 10.0,
+            "mean_contact_force": 2.0,
+            "max_contact_force_xyz": [1.0, 1.0, 10.0],
+            "mean_contact_force_xyz": [0.1, 0.1, 2.0],
+        },
+        {
+            "success": False,
+            "protective_stop": True,
+            "max_contact_force": 30.0,
+            "mean_contact_force": 4.0,
+            "max_contact_force_xyz": [3.0, 1.0, 30.0],
+            "mean_contact_force_xyz": [0.3, 0.1, 4.0],
+        },
+    ]
+    s = summarize(recs)
+    assert s["n"] == 2 and s["success_rate"] == 0.5 and s["protective_stops"] == 1
+    assert s["max_contact_force"]["mean"] == 20.0 and s["max_contact_force"]["std"] == 10.0
+    assert s["max_contact_force_xyz"]["mean"] == [2.0, 1.0, 20.0]
+    c = compare(summarize(recs[:1]), s)
+    assert c["max_contact_force_change_pct"] == pytest.approx(-50.0)
+    assert c["mean_contact_force_xyz_change_pct"] == pytest.approx([-50.0, 0.0, -33.333333])

@@ -1,0 +1,120 @@
+"""``forcemap report``: the table's numbers and the plots."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from lerobot_forcemap.cli import main
+from lerobot_forcemap.experiments.evaluate import summarize
+from lerobot_forcemap.experiments.report import table_rows
+
+
+def _record(seed, fmax, fmean, trace=True):
+    t = np.arange(0, 3, 0.05)
+    f = fmax * np.exp(-((t - 1.5) ** 2) / 0.1)
+    z = 0.05 - 0.06 * np.exp(-((t - 1.5) ** 2) / 0.3)
+    rows = np.column_stack(
+        [
+            t,
+            0 * t,
+            0 * t,
+            f,
+            0.5 + 0 * t,
+            0 * t,
+            z,
+            np.tile([0, 1, 0, 0], (len(t), 1)),
+            0.5 + 0 * t,
+            0 * t,
+            z - f / 2000,
+            np.tile([0, 1, 0, 0], (len(t), 1)),
+            1 + 0 * t,
+        ]
+    )
+    rec = {
+        "seed": seed,
+        "episode": seed,
+        "success": True,
+        "protective_stop": False,
+        "max_contact_force": fmax,
+        "mean_contact_force": fmean,
+        "max_contact_force_xyz": [0.1, 0.1, fmax],
+        "mean_contact_force_xyz": [0.0, 0.0, fmean],
+    }
+    if trace:
+        rec["trace"] = {
+            "columns": [
+                "t",
+                "fx",
+                "fy",
+                "fz",
+                "x",
+                "y",
+                "z",
+                "qw",
+                "qx",
+                "qy",
+                "qz",
+                "target_x",
+                "target_y",
+                "target_z",
+                "target_qw",
+                "target_qx",
+                "target_qy",
+                "target_qz",
+                "gripper",
+            ],
+            "rows": rows.tolist(),
+            "environment_state": [0.5, 0.0, 0.02, 1, 0, 0, 0, 0],
+            "environment_state_names": [
+                "button_x",
+                "button_y",
+                "button_z",
+                "button_qw",
+                "button_qx",
+                "button_qy",
+                "button_qz",
+                "button_travel",
+            ],
+        }
+    return rec
+
+
+def _doc():
+    reps = [_record(1000, 20.0, 5.0), _record(1001, 24.0, 6.0)]
+    demo = _record(0, 50.0, 12.0)
+    demo["trace"]["columns"] = ["t", "fx", "fy", "fz", "x", "y", "z", "target_x", "target_y", "target_z"]
+    demo["trace"]["rows"] = np.asarray(demo["trace"]["rows"])[:, [0, 1, 2, 3, 4, 5, 6, 11, 12, 13]].tolist()
+    return {
+        "task": "press",
+        "policy": "p",
+        "seed": 1000,
+        "episodes": reps,
+        "summary": summarize(reps),
+        "demonstrations": {
+            "source": "test",
+            "fitted_episodes": [0],
+            "episodes": [demo],
+            "summary_all": summarize([demo]),
+            "summary_fitted": summarize([demo]),
+        },
+    }
+
+
+def test_table_numbers():
+    rows = {q: (d, r, c) for q, d, r, c in table_rows(_doc())}
+    assert rows["success"][:2] == ("100%", "100%")
+    assert rows["max contact force (N)"] == ("50.0 ± 0.0", "22.0 ± 2.0", "-56%")
+    assert rows["mean contact force (N)"][2] == "-54%"
+
+
+def test_cli_report_writes_markdown_and_plots(tmp_path, capsys):
+    path = tmp_path / "eval.json"
+    path.write_text(json.dumps(_doc()))
+    assert main(["report", "--json", str(path), "--out", str(tmp_path / "r")]) == 0
+    md = (tmp_path / "r" / "report.md").read_text()
+    assert "| max contact force (N) | 50.0 ± 0.0 | 22.0 ± 2.0 | -56% |" in md
+    for name in ("forces.png", "force_profile.png", "path3d.png"):
+        assert (tmp_path / "r" / name).stat().st_size > 5000, name
+    assert "-56%" in capsys.readouterr().out

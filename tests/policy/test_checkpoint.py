@@ -1,0 +1,128 @@
+"""A corrupted or mismatched checkpoint fails with the file and the field named; loading never unpickles."""
+
+from __future__ import annotations
+
+import json
+import pickle
+import shutil
+from unittest import mock
+
+import numpy as np
+import pytest
+import torch
+from safetensors.torch import load_file, save_file
+
+from lerobot_policy_forcemap.checkpoint import check_skill_values
+from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
+
+@pytest.fixture
+def ckpt(press_checkpoint, tmp_path):
+    out = tmp_path / "ckpt"
+    shutil.copytree(press_checkpoint, out)
+    return out
+
+
+def _edit_config(path, **changes):
+    data = json.loads((path / "config.json").read_text())
+    data.update(changes)
+    (path / "config.json").write_text(json.dumps(data))
+    return data
+
+
+def test_loading_never_unpickles(ckpt):
+    boom = mock.Mock(side_effect=AssertionError("unpickling during load"))
+    with (
+        mock.patch.object(pickle, "load", boom),
+        mock.patch.object(pickle, "loads", boom),
+        mock.patch.object(torch, "load", boom),
+    ):
+        policy = ForceMapPolicy.from_pretrained(ckpt)
+    assert policy.config.is_fitted
+    assert not [p for p in ckpt.iterdir() if p.suffix in (".pt", ".pth", ".bin", ".pkl")]
+
+
+def test_truncated_safetensors(ckpt):
+    path = ckpt / "model.safetensors"
+    path.write_bytes(path.read_bytes()[:100])
+    with pytest.raises(ValueError, match=r"model\.safetensors: not a readable safetensors file"):
+        ForceMapPolicy.from_pretrained(ckpt)
+
+
+def test_config_and_tensors_that_do_not_belong_together(ckpt):
+    data = json.loads((ckpt / "config.json").read_text())
+    n = list(data["segment_n_nodes"])
+    n[0] += 1
+    _edit_config(ckpt, segment_n_nodes=n)
+    with pytest.raises(ValueError, match=r"model\.safetensors: tensor 'nodes' has shape .* segment_n_nodes"):
+        ForceMapPolicy.from_pretrained(ckpt)
+
+
+def test_missing_tensor(ckpt):
+    tensors = load_file(ckpt / "model.safetensors")
+    del tensors["durations"]
+    save_file(tensors, ckpt / "model.safetensors")
+    with pytest.raises(ValueError, match=r"model\.safetensors: missing tensor\(s\) \['durations'\]"):
+        ForceMapPolicy.from_pretrained(ckpt)
+
+
+def test_wrong_dtype(ckpt):
+    tensors = load_file(ckpt / "model.safetensors")
+    tensors["nodes"] = tensors["nodes"].float()
+    save_file(tensors, ckpt / "model.safetensors")
+    with pytest.raises(ValueError, match="tensor 'nodes' has dtype F32, expected F64"):
+        ForceMapPolicy.from_pretrained(ckpt)
+
+
+def test_non_finite_values(ckpt):
+    tensors = load_file(ckpt / "model.safetensors")
+    tensors["node_times"][3] = float("nan")
+    save_file(tensors, ckpt / "model.safetensors")
+    with pytest.raises(ValueError, match=r"model\.safetensors: tensor 'node_times' has 1 non-finite"):
+        ForceMapPolicy.from_pretrained(ckpt)
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (lambda p: (p / "config.json").write_text("{not json"), r"config\.json: not valid JSON"),
+        (lambda p: _edit_config(p, type="act"), r"config\.json: field 'type' is 'act', expected 'forcemap'"),
+        (
+            lambda p: _edit_config(p, n_segments="three"),
+            r"config\.json: field 'n_segments' must be an integer",
+        ),
+        (
+            lambda p: _edit_config(p, segment_n_nodes=[1.5, 2]),
+            r"config\.json: field 'segment_n_nodes' must be a list of integers",
+        ),
+        (
+            lambda p: _edit_config(p, n_segments=7),
+            r"config\.json: cannot read the policy config: .*segment_n_nodes",
+        ),
+        (
+            lambda p: _edit_config(p, stiffness=-1),
+            r"config\.json: cannot read the policy config: .*stiffness",
+        ),
+        (lambda p: (p / "config.json").unlink(), r"config\.json: file not found"),
+        (lambda p: (p / "model.safetensors").unlink(), r"model\.safetensors: file not found"),
+    ],
+)
+def test_bad_config_json(ckpt, edit, message):
+    edit(ckpt)
+    with pytest.raises(ValueError, match=message):
+        ForceMapPolicy.from_pretrained(ckpt)
+
+
+def test_value_checks_name_the_field():
+    cfg = mock.Mock(segment_n_nodes=[3], segment_n_gripper_nodes=[3])
+    arrays = {
+        "nodes": np.zeros((3, 3)),
+        "node_times": np.array([0.0, 0.2, 0.1]),
+        "orientations": np.tile([1.0, 0, 0, 0], (3, 1)),
+        "gripper_nodes": np.zeros((3, 1)),
+        "gripper_node_times": np.array([0.0, 0.1, 0.2]),
+        "durations": np.array([1.0]),
+        "anchor_poses": np.zeros((1, 7)),
+    }
+    with pytest.raises(ValueError, match="src: tensor 'node_times' decreases within segment 0"):
+        check_skill_values(arrays, cfg, "src")

@@ -1,0 +1,89 @@
+"""ForceMapConfig: registration, LeRobot defaults, validation, JSON round trip."""
+
+from __future__ import annotations
+
+import pytest
+from lerobot.configs import NormalizationMode, PreTrainedConfig
+
+from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+
+
+def test_registered_and_lerobot_defaults():
+    assert PreTrainedConfig.get_choice_class("forcemap") is ForceMapConfig
+    cfg = ForceMapConfig(device="cpu")
+    assert cfg.type == "forcemap"
+    assert cfg.push_to_hub is False  # LeRobot's True would fail validation without a repo_id
+    assert cfg.n_obs_steps == 1
+    assert set(cfg.normalization_mapping.values()) == {NormalizationMode.IDENTITY}
+    opt = cfg.get_optimizer_preset()
+    assert opt.lr == 0.0 and opt.grad_clip_norm == 0.0
+    assert cfg.get_scheduler_preset() is None
+    assert cfg.episodes == [0] and not cfg.is_fitted
+
+
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        ({"stiffness": 0.0}, "stiffness"),
+        ({"segments": "magic"}, "segments"),
+        ({"episodes": []}, "episodes"),
+        ({"episodes": [1, 1]}, "episodes"),
+        ({"rho_max": 1.5}, "rho_max"),
+        ({"stream_weights": {"position": 1.0, "voice": 2.0}}, "stream_weights"),
+        ({"segment_overrides": {1: {"stifness": 2.0}}}, "segment_overrides"),
+        ({"n_nodes": 2}, "n_nodes"),
+        ({"time_scale": -1.0}, "time_scale"),
+        (
+            {
+                "n_segments": 2,
+                "segment_n_nodes": [5],
+                "segment_n_gripper_nodes": [5, 5],
+                "segment_anchors": ["", ""],
+                "fps": 20.0,
+            },
+            "segment_n_nodes",
+        ),
+        (
+            {
+                "n_segments": 1,
+                "segment_n_nodes": [5],
+                "segment_n_gripper_nodes": [5],
+                "segment_anchors": ["button"],
+                "fps": 20.0,
+            },
+            "env_state_names",
+        ),
+    ],
+)
+def test_bad_settings_name_the_field(kwargs, field):
+    with pytest.raises(ValueError, match=f"ForceMapConfig.{field}"):
+        ForceMapConfig(device="cpu", **kwargs)
+
+
+def test_segment_params_apply_overrides_to_one_segment():
+    cfg = ForceMapConfig(
+        device="cpu", stiffness=3000.0, segment_overrides={1: {"stiffness": 5000.0, "n_nodes": 7}}
+    )
+    assert cfg.segment_params(0)["stiffness"] == 3000.0 and cfg.segment_params(0)["n_nodes"] is None
+    assert cfg.segment_params(1)["stiffness"] == 5000.0 and cfg.segment_params(1)["n_nodes"] == 7
+
+
+def test_json_round_trip_keeps_every_field(tmp_path):
+    cfg = ForceMapConfig(
+        device="cpu",
+        episodes=[0, 3],
+        stiffness=2500.0,
+        force_limit=40.0,
+        segment_overrides={2: {"stiffness": 4000.0}},
+        n_segments=2,
+        segment_n_nodes=[5, 9],
+        segment_n_gripper_nodes=[5, 9],
+        segment_anchors=["", "button"],
+        env_state_names=["button_x", "button_y", "button_z"],
+        fps=20.0,
+    )
+    cfg._save_pretrained(tmp_path)
+    back = PreTrainedConfig.from_pretrained(tmp_path)
+    assert isinstance(back, ForceMapConfig)
+    for name in ForceMapConfig.field_names():
+        assert getattr(back, name) == getattr(cfg, name), name

@@ -1,0 +1,70 @@
+"""Reading demonstrations: columns -> EpisodeArrays, with errors naming feature, episode and frame."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+from lerobot_policy_forcemap.episodes import episodes_from_columns, finger_force_scalar
+
+from .helpers import episode_columns, press_episode
+
+
+@pytest.fixture
+def columns():
+    return episode_columns([press_episode(0), press_episode(1, obj=(0.52, 0.01, 0.03))])
+
+
+def test_round_trip_of_synthetic_columns(columns):
+    cols, feats = columns
+    eps = episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", episodes=[1, 0]))
+    ref = [press_episode(1, obj=(0.52, 0.01, 0.03)), press_episode(0)]
+    assert [e.episode for e in eps] == [1, 0]
+    for got, want in zip(eps, ref, strict=True):
+        np.testing.assert_allclose(got.pose[:, :3], want.pose[:, :3], atol=1e-6)
+        np.testing.assert_allclose(got.force, want.force, atol=1e-4)
+        np.testing.assert_allclose(got.times, want.times, atol=1e-6)
+        np.testing.assert_array_equal(got.segment_labels, want.segment_labels)
+        assert got.joints is None and got.gripper_force is None
+
+
+def test_missing_feature_names_the_key(columns):
+    cols, feats = columns
+    with pytest.raises(ValueError, match="pose_key='observation.ee_pose'"):
+        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", pose_key="observation.ee_pose"))
+
+
+def test_nan_names_feature_episode_and_frame(columns):
+    cols, feats = columns
+    cols["observation.force"][np.flatnonzero(cols["episode_index"] == 1)[7], 2] = np.nan
+    with pytest.raises(ValueError, match=r"'observation.force', episode 1, frame 7"):
+        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", episodes=[0, 1]))
+
+
+def test_duplicated_timestamp_names_the_frame(columns):
+    cols, feats = columns
+    rows = np.flatnonzero(cols["episode_index"] == 0)
+    cols["timestamp"][rows[12]] = cols["timestamp"][rows[11]]
+    with pytest.raises(ValueError, match=r"episode 0, frame 12: timestamps must increase"):
+        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu"))
+
+
+def test_unknown_episode_lists_the_available_ones(columns):
+    cols, feats = columns
+    with pytest.raises(ValueError, match=r"episode\(s\) \[5\] not in the dataset \(it has \[0, 1\]\)"):
+        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", episodes=[5]))
+
+
+def test_zero_quaternion_is_rejected(columns):
+    cols, feats = columns
+    cols["action"][3, 3:7] = 0.0
+    with pytest.raises(ValueError, match="episode 0, frame 3: zero quaternion"):
+        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu"))
+
+
+def test_finger_force_points_towards_open():
+    # two fingers with 3-D forces of norms 3 and 5, and scalar normal forces
+    f3 = np.array([[3.0, 0.0, 0.0, 0.0, 4.0, 3.0]])
+    assert finger_force_scalar(f3, ["f0x", "f0y", "f0z", "f1x", "f1y", "f1z"])[0] == pytest.approx(-4.0)
+    assert finger_force_scalar(np.array([[2.0, -6.0]]), ["f0", "f1"])[0] == pytest.approx(-4.0)

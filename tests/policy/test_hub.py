@@ -1,0 +1,100 @@
+"""Push to and load from the Hugging Face Hub, against a mocked HfApi / hf_hub_download (no network)."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+from unittest import mock
+
+import pytest
+import torch
+
+from lerobot_policy_forcemap.modeling_forcemap import SKILL_TENSORS, ForceMapPolicy
+
+REPO = "someone/forcemap-press"
+
+
+class FakeHub:
+    """Records create_repo / upload_folder calls and serves uploaded files back through hf_hub_download."""
+
+    def __init__(self, root: Path):
+        self.root = root
+        self.api = mock.MagicMock()
+        self.api.create_repo.side_effect = lambda repo_id, **kw: mock.Mock(repo_id=repo_id)
+        self.api.upload_folder.side_effect = self._upload
+
+    def _upload(self, *, repo_id, folder_path, allow_patterns=None, **kw):
+        dest = self.root / repo_id
+        for f in Path(folder_path).rglob("*"):
+            if f.is_file() and (allow_patterns is None or any(f.match(p) for p in allow_patterns)):
+                (dest / f.relative_to(folder_path)).parent.mkdir(parents=True, exist_ok=True)
+                shutil.copy(f, dest / f.relative_to(folder_path))
+        return mock.Mock(repo_url=mock.Mock(url=f"https://huggingface.co/{repo_id}"))
+
+    def download(self, repo_id, filename, **kw):
+        path = self.root / repo_id / filename
+        if not path.is_file():
+            from huggingface_hub.errors import EntryNotFoundError
+
+            raise EntryNotFoundError(f"{filename} not in {repo_id}")
+        return str(path)
+
+
+@pytest.fixture
+def hub(tmp_path):
+    fake = FakeHub(tmp_path / "remote")
+    with (
+        mock.patch("lerobot.utils.hub.HfApi", return_value=fake.api),
+        mock.patch("lerobot.policies.pretrained.HfApi", return_value=fake.api),
+        mock.patch("lerobot.configs.policies.hf_hub_download", side_effect=fake.download),
+        mock.patch("lerobot.policies.pretrained.hf_hub_download", side_effect=fake.download),
+        mock.patch("lerobot.processor.pipeline.hf_hub_download", side_effect=fake.download),
+        mock.patch("huggingface_hub.repocard.RepoCard.validate"),  # the card check calls the Hub API
+    ):
+        yield fake
+
+
+def test_push_then_load_from_the_hub(press_checkpoint, hub):
+    from lerobot.policies.factory import make_pre_post_processors
+
+    policy = ForceMapPolicy.from_pretrained(press_checkpoint)
+    policy.push_to_hub(REPO)
+    pre, post = make_pre_post_processors(policy.config, pretrained_path=str(press_checkpoint))
+    pre.push_to_hub(REPO)
+    post.push_to_hub(REPO)
+
+    hub.api.create_repo.assert_any_call(repo_id=REPO, private=None, exist_ok=True)
+    kinds = {c.kwargs["repo_type"] for c in hub.api.upload_folder.call_args_list}
+    assert kinds == {"model"}
+    pushed = sorted(p.name for p in (hub.root / REPO).iterdir())
+    assert {
+        "config.json",
+        "model.safetensors",
+        "policy_preprocessor.json",
+        "policy_postprocessor.json",
+    } <= set(pushed)
+
+    back = ForceMapPolicy.from_pretrained(REPO)
+    for name in SKILL_TENSORS:
+        assert torch.equal(getattr(back, name), getattr(policy, name)), name
+    pre2, _ = make_pre_post_processors(back.config, pretrained_path=REPO)
+    assert [type(s).__name__ for s in pre2.steps] == [type(s).__name__ for s in pre.steps]
+
+
+def test_lerobot_train_style_push(press_checkpoint, hub):
+    """lerobot-train's end-of-training push: push_model_to_hub(train config) uploads weights, config and card."""
+    from lerobot.configs.default import DatasetConfig
+    from lerobot.configs.train import TrainPipelineConfig
+
+    policy = ForceMapPolicy.from_pretrained(press_checkpoint)
+    policy.config.repo_id = REPO
+    cfg = TrainPipelineConfig(dataset=DatasetConfig(repo_id="local/press"), policy=policy.config)
+    policy.push_model_to_hub(cfg)
+    files = {p.name for p in (hub.root / REPO).iterdir()}
+    assert {"config.json", "model.safetensors", "README.md", "train_config.json"} <= files
+    assert "forcemap" in (hub.root / REPO / "README.md").read_text()
+
+
+def test_missing_repo_is_a_clear_error(hub):
+    with pytest.raises(ValueError, match="cannot read the policy config"):
+        ForceMapPolicy.from_pretrained("someone/does-not-exist")

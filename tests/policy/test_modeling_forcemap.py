@@ -1,0 +1,143 @@
+"""ForceMapPolicy in LeRobot: closed-form fit in the constructor, acting, save/load round trip."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+from lerobot_policy_forcemap.modeling_forcemap import SKILL_TENSORS, ForceMapPolicy
+
+from .conftest import fit_and_save
+
+
+def _scene(button=(0.5, 0.0, 0.027), tcp=(0.42, 0.0, 0.15), batch=1):
+    """A LeRobot-style observation batch of the press task (tool pointing down)."""
+    q = [0.0, 1.0, 0.0, 0.0]
+    obs = {
+        "observation.ee_pose": torch.tensor([[*tcp, *q]] * batch, dtype=torch.float32),
+        "observation.environment_state": torch.tensor(
+            [[*button, 1.0, 0.0, 0.0, 0.0, 0.0]] * batch, dtype=torch.float32
+        ),
+        "observation.state": torch.zeros(batch, 7),
+        "observation.force": torch.zeros(batch, 6),
+    }
+    return obs
+
+
+@pytest.fixture(scope="module")
+def policy(press_checkpoint):
+    return ForceMapPolicy.from_pretrained(press_checkpoint)
+
+
+def test_fit_fills_the_config_and_buffer_shapes(policy):
+    cfg = policy.config
+    assert cfg.is_fitted and cfg.fps == 20.0 and cfg.episodes == [0]
+    assert len(cfg.segment_n_nodes) == cfg.n_segments == len(cfg.segment_anchors)
+    assert "button" in cfg.segment_anchors and cfg.env_state_names[:3] == ["button_x", "button_y", "button_z"]
+    n = sum(cfg.segment_n_nodes)
+    assert (
+        policy.nodes.shape == (n, 3)
+        and policy.orientations.shape == (n, 4)
+        and policy.nodes.dtype == torch.float64
+    )
+    assert [p.numel() for p in policy.get_optim_params()] == [1]
+
+
+def test_select_action_streams_the_reproduction_and_matches_chunks(policy):
+    obs = _scene()
+    policy.reset()
+    chunk = policy.predict_action_chunk(obs)
+    assert chunk.shape == (1, policy.config.chunk_size, 8) and chunk.dtype == torch.float32
+    steps = torch.stack([policy.select_action(obs) for _ in range(policy.config.chunk_size)], dim=1)
+    torch.testing.assert_close(steps, chunk, rtol=0, atol=0)
+    # the first target is the robot's current pose (start re-anchoring)
+    np.testing.assert_allclose(steps[0, 0, :3].numpy(), [0.42, 0.0, 0.15], atol=1e-6)
+    # after the demonstration's duration the final pose is held
+    policy.reset()
+    n = int(round(sum(policy.durations.tolist()) * policy.config.fps)) + 5
+    acts = torch.stack([policy.select_action(obs) for _ in range(n + 3)])
+    torch.testing.assert_close(acts[-1], acts[-3], rtol=0, atol=0)
+
+
+def test_batch_elements_are_placed_in_their_own_scenes(policy):
+    a, b = _scene(button=(0.49, -0.01, 0.027)), _scene(button=(0.52, 0.015, 0.027), tcp=(0.41, 0.004, 0.152))
+    both = {k: torch.cat([a[k], b[k]]) for k in a}
+    policy.reset()
+    out = torch.stack([policy.select_action(both) for _ in range(70)], dim=1)
+    for i, single in enumerate((a, b)):
+        policy.reset()
+        ref = torch.stack([policy.select_action(single) for _ in range(70)], dim=1)
+        torch.testing.assert_close(out[i : i + 1], ref, rtol=0, atol=0)
+    # the press happens over each batch element's own button
+    low = out[:, :, 2].argmin(dim=1)
+    for i, button in enumerate(((0.49, -0.01), (0.52, 0.015))):
+        np.testing.assert_allclose(out[i, low[i], :2].numpy(), button, atol=4e-3)
+
+
+def test_save_load_round_trip_is_bit_exact(policy, tmp_path):
+    policy.save_pretrained(tmp_path)
+    back = ForceMapPolicy.from_pretrained(tmp_path)
+    for name in SKILL_TENSORS:
+        assert torch.equal(getattr(back, name), getattr(policy, name)), name
+    for name in ForceMapConfig.field_names():
+        if name not in ("pretrained_path",):
+            assert getattr(back.config, name) == getattr(policy.config, name), name
+    obs = _scene(button=(0.51, 0.01, 0.027))
+    policy.reset()
+    back.reset()
+    for _ in range(100):
+        assert torch.equal(policy.select_action(obs), back.select_action(obs))
+
+
+def test_forward_is_a_diagnostic_loss_without_gradient_effect(policy):
+    batch = _scene(batch=3)
+    batch["action"] = torch.tensor([[0.5, 0.0, 0.04, 0.0, 1.0, 0.0, 0.0, 1.0]] * 3)
+    policy.train()
+    loss, info = policy.forward(batch)
+    assert loss.ndim == 0 and torch.isfinite(loss) and 0 <= loss.item() < 0.05
+    loss.backward()
+    assert policy.closed_form_dummy.grad is not None and policy.closed_form_dummy.grad.abs().sum() == 0
+    assert info["map_distance_mm"] == pytest.approx(loss.item() * 1e3, rel=1e-5)
+    per_sample, _ = policy.forward(batch, reduction="none")
+    assert per_sample.shape == (3,)
+    policy.eval()
+
+
+def test_missing_observation_and_unfitted_policy_are_clear_errors(policy):
+    obs = _scene()
+    del obs["observation.environment_state"]
+    policy.reset()
+    with pytest.raises(ValueError, match="observation 'observation.environment_state' is missing"):
+        policy.select_action(obs)
+    empty = ForceMapPolicy(ForceMapConfig(device="cpu"))
+    with pytest.raises(ValueError, match="not fitted"):
+        empty.select_action(_scene())
+
+
+def test_multi_episode_fit_with_dataset_phases(press_dataset, tmp_path):
+    pol = fit_and_save(
+        press_dataset,
+        tmp_path / "multi",
+        episodes=[0, 1, 2, 3, 4],
+        segments="dataset",
+        segment_column="demo_phase",
+    )
+    assert pol.fit_report.episodes == (0, 1, 2, 3, 4)
+    assert pol.config.n_segments == len(pol.fit_report.changepoints[0]) - 1 >= 4
+    back = ForceMapPolicy.from_pretrained(tmp_path / "multi")
+    assert torch.equal(back.nodes, pol.nodes)
+
+
+def test_multi_episode_auto_segments_must_agree(press_dataset, tmp_path):
+    # different auto segment counts between demonstrations are reported, not silently aligned
+    counts = []
+    for e in range(4):
+        pol = fit_and_save(press_dataset, tmp_path / f"one{e}", episodes=[e])
+        counts.append(pol.config.n_segments)
+    if len(set(counts)) == 1:
+        pytest.skip(f"the first 4 demonstrations all segment into {counts[0]} segments")
+    a, b = next((i, j) for i in range(4) for j in range(4) if counts[i] != counts[j])
+    with pytest.raises(ValueError, match="segment counts differ"):
+        fit_and_save(press_dataset, tmp_path / "bad", episodes=[a, b])
