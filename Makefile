@@ -12,7 +12,7 @@ export MKL_NUM_THREADS ?= 1
 export MUJOCO_GL ?= egl
 PYTEST_ARGS ?=
 
-.PHONY: venv test test-fast demo bench experiments lint clean
+.PHONY: venv test test-fast demo bench experiments datasets segmentation-experiment lint clean
 
 venv: $(VENV)/.installed
 
@@ -43,6 +43,17 @@ bench: venv
 
 experiments: venv
 	HF_HUB_OFFLINE=1 $(PY) scripts/experiments/run_all.py
+
+# Regenerate the shipped datasets of scripted demonstrations (10 episodes each, seed 0).
+DATASET_TASKS ?= press erase peg_in_hole grasp_push grasp_flip
+datasets: venv
+	for t in $(DATASET_TASKS); do \
+		$(VENV)/bin/forcemap record --task $$t --episodes 10 --seed 0 --out datasets/$$t --overwrite || exit 1; \
+	done
+
+# The GBTI segmentation experiment (needs ../shared/data or FORCEMAP_SHARED_DATA).
+segmentation-experiment: venv
+	$(PY) scripts/gbti_segmentation.py
 
 lint: venv
 	$(PY) -m ruff check lerobot_forcemap lerobot_policy_forcemap lerobot_env_forcemap tests scripts
