@@ -62,6 +62,26 @@ def task_features(task: str, *, obs_type: str = "state", image_size: int = 128, 
     return features, features_map
 
 
+def _extend_env_state_feature(features: dict[str, PolicyFeature], extras_spec: str) -> dict[str, PolicyFeature]:
+    """The env's features as the policy sees them after the env processor (environment_state grown
+    by the extras' sizes); unchanged when ``extras_spec`` is empty."""
+    from .env_state import ENV_STATE_EXTRA_KEYS, parse_env_state_extras
+
+    extras = parse_env_state_extras(extras_spec)
+    if not extras:
+        return features
+    raw = {layout.ENV_TO_FEATURE[k]: k for k in features if k in layout.ENV_TO_FEATURE}
+    size = features[layout.ENV_STATE].shape[0]
+    for e in extras:
+        raw_key = raw.get(ENV_STATE_EXTRA_KEYS[e])
+        if raw_key is None:
+            raise ValueError(f"env_state_extras: {e!r} needs {ENV_STATE_EXTRA_KEYS[e]}, which this env lacks")
+        size += features[raw_key].shape[0]
+    out = dict(features)
+    out[layout.ENV_STATE] = PolicyFeature(type=FeatureType.ENV, shape=(size,))
+    return out
+
+
 @dataclass
 class ForcemapEnvConfig(EnvConfig):
     """Shared fields of the forcemap tasks (subclasses set ``forcemap_task``, ``task``, ``episode_length``)."""
@@ -78,6 +98,10 @@ class ForcemapEnvConfig(EnvConfig):
     randomize: bool = True
     features: dict[str, PolicyFeature] = field(default_factory=dict)
     features_map: dict[str, str] = field(default_factory=dict)
+    # Comma-separated observation keys appended to environment_state by an env processor, for
+    # policies that read only state / environment_state / images (ACT, Diffusion): e.g.
+    # "ee_pose,force". See lerobot_env_forcemap/env_state.py. Empty: no env processor.
+    env_state_extras: str = ""
 
     def __post_init__(self):
         if self.obs_type not in ("state", "pixels_state"):
@@ -86,6 +110,17 @@ class ForcemapEnvConfig(EnvConfig):
             self.features, self.features_map = task_features(
                 self.forcemap_task, obs_type=self.obs_type, image_size=self.image_size, robot=self.robot
             )
+            self.features = _extend_env_state_feature(self.features, self.env_state_extras)
+
+    def get_env_processors(self):
+        """(pre, post) env processors: appends ``env_state_extras`` to environment_state when set."""
+        from lerobot.processor import PolicyProcessorPipeline
+
+        from .env_state import EnvStateExtrasProcessorStep, parse_env_state_extras
+
+        extras = parse_env_state_extras(self.env_state_extras)
+        steps = [EnvStateExtrasProcessorStep(extras=extras)] if extras else []
+        return PolicyProcessorPipeline(steps=steps), PolicyProcessorPipeline(steps=[])
 
     @property
     def package_name(self) -> str:
@@ -132,4 +167,41 @@ class ForcemapPegInHoleEnv(ForcemapEnvConfig):
     episode_length: int = task_entry("peg_in_hole").max_episode_steps
 
 
-ENV_TYPES = {"press": "forcemap_press", "erase": "forcemap_erase", "peg_in_hole": "forcemap_peg_in_hole"}
+@dataclass
+class ForcemapGraspEnvConfig(ForcemapEnvConfig):
+    """The Gen3 grasping tasks add ``object`` (None: the task's demonstration object; or ``apple``,
+    ``banana``), e.g. ``lerobot-eval --env.type=forcemap_grasp_push --env.object=apple``."""
+
+    object: str | None = None
+
+    @property
+    def gym_kwargs(self) -> dict:
+        kwargs = super().gym_kwargs
+        if self.object is not None:
+            kwargs["object"] = self.object
+        return kwargs
+
+
+@EnvConfig.register_subclass("forcemap_grasp_push")
+@dataclass
+class ForcemapGraspPushEnv(ForcemapGraspEnvConfig):
+    forcemap_task: ClassVar[str] = "grasp_push"
+    task: str | None = "GraspPush-v0"
+    episode_length: int = task_entry("grasp_push").max_episode_steps
+
+
+@EnvConfig.register_subclass("forcemap_grasp_flip")
+@dataclass
+class ForcemapGraspFlipEnv(ForcemapGraspEnvConfig):
+    forcemap_task: ClassVar[str] = "grasp_flip"
+    task: str | None = "GraspFlip-v0"
+    episode_length: int = task_entry("grasp_flip").max_episode_steps
+
+
+ENV_TYPES = {
+    "press": "forcemap_press",
+    "erase": "forcemap_erase",
+    "peg_in_hole": "forcemap_peg_in_hole",
+    "grasp_push": "forcemap_grasp_push",
+    "grasp_flip": "forcemap_grasp_flip",
+}

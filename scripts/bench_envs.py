@@ -116,7 +116,7 @@ def main() -> int:
         os.sched_setaffinity(0, set(sorted(os.sched_getaffinity(0))[: args.cores]))
     rows = []
     for task in TASKS:
-        if task not in ("press", "erase", "peg_in_hole"):
+        if task not in ("press", "erase", "peg_in_hole", "grasp_push", "grasp_flip"):
             continue
         build = bench_build(task)
         rtf, bare, steps = bench_rtf(task, args.episodes)

@@ -1,8 +1,10 @@
 """MuJoCo force tasks as gymnasium envs (paper §IV in simulation; SPEC §3-4).
 
 Importing this package registers the gym ids ``lerobot_forcemap/Press-v0``, ``lerobot_forcemap/Erase-v0``
-and ``lerobot_forcemap/PegInHole-v0`` (MuJoCo itself is imported only when an env is made) and sets
-``MUJOCO_GL=egl`` unless already set (headless rendering; must happen before ``import mujoco``).
+and ``lerobot_forcemap/PegInHole-v0`` (UR5e), ``lerobot_forcemap/GraspPush-v0`` and
+``lerobot_forcemap/GraspFlip-v0`` (Kinova Gen3 + three-finger gripper; ``object=`` picks the object)
+(MuJoCo itself is imported only when an env is made) and sets ``MUJOCO_GL=egl`` unless already set
+(headless rendering; must happen before ``import mujoco``).
 
     import gymnasium as gym, lerobot_forcemap.envs
     env = gym.make("lerobot_forcemap/Press-v0")            # obs_type="pixels_state" adds camera images
@@ -20,6 +22,11 @@ Modules (one job each):
     demonstrators.py  seeded scripted demonstrators; hybrid_control.py  force/position baseline
     record.py     ``forcemap record``: demonstrations into a LeRobot v3 dataset
     registration.py   gym ids and episode lengths
+
+The Gen3 followed the recipe below: ``robots/gen3.py``, ``robots/three_finger_gripper.py``,
+``tasks/grasping.py`` (objects, lift-and-hold success), ``tasks/grasp_push.py``, ``tasks/grasp_flip.py``.
+Unlike the disc of ``peg_in_hole``, a grasped object lies on the table most of the episode, so it is an
+*environment* body of the ``ContactMonitor`` (its contacts with the robot count), not a ``held`` one.
 
 Extension point — a second robot (the Kinova Gen3 with a three-finger gripper, issue 5):
  1. ``robots/gen3.py``: ``build_gen3_arm() -> MjSpec`` following the contract in ``robots/base.py``

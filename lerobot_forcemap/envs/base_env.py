@@ -85,7 +85,7 @@ class ForceTaskEnv(gym.Env):
         self.image_size = int(image_size)
         self.render_size = int(render_size)
         self.robot: RobotSpec = get_robot(robot or self.task_class.robot_name)
-        self.task_impl: ForceTask = self.task_class(self.robot, randomize=randomize)
+        self.task_impl: ForceTask = self.task_class(self.robot, randomize=randomize, **self.task_options())
         self.scene_config = SceneConfig(
             render_width=max(self.render_size, self.image_size),
             render_height=max(self.render_size, self.image_size),
@@ -166,6 +166,10 @@ class ForceTaskEnv(gym.Env):
         assert self.action_space.shape == (ACTION_DIM,)
         self._renderers: dict[int, mujoco.Renderer] = {}
         self._episode_started = False
+
+    def task_options(self) -> dict[str, Any]:
+        """Extra keyword arguments for the task's constructor (e.g. the grasping tasks' ``object_name``)."""
+        return {}
 
     # ---- LeRobot rollout contract ---------------------------------------------------------------------
     @property

@@ -496,3 +496,380 @@ DEMONSTRATORS["peg_in_hole"] = PegInHoleDemonstrator
 def _duration(a: np.ndarray, b: np.ndarray, base: float, max_speed: float = 0.15) -> float:
     """Duration of a minimum-jerk move: at least ``base``, and slow enough for ``max_speed`` at the peak."""
     return max(base, 1.875 * float(np.linalg.norm(np.asarray(b) - np.asarray(a))) / max_speed)
+
+
+# ---- Kinova Gen3 grasping (grasp_push, grasp_flip) --------------------------------------------------------------
+
+
+class GraspDemonstrator(ScriptedDemonstrator):
+    """Teleoperation with a three-finger hand: a pre-grasp manipulation, then grasp, lift and hold.
+
+    The pre-grasp part is the subclass's (push the book upright / flip the carton); the rest is shared:
+    from the object's observed pose (``environment_state``) it picks a grasp point (the object's centre,
+    raised along its most vertical axis until the palm clears the object's top), reaches above it with
+    the hand open, descends, closes the hand at a constant rate until the largest fingertip force reaches
+    its target — 18-30 N where 1-2 N hold the object: squeezing harder than needed — holds that command,
+    lifts 10-13 cm and holds. Hand noise: smooth tremor of ~1 mm in free motion, a 0-3 mm aim error.
+    """
+
+    phases: ClassVar[tuple[str, ...]]
+    pregrasp_phases: ClassVar[tuple[str, ...]]
+    GRASP_PHASES: ClassVar[tuple[str, ...]] = ("reach", "descend", "grasp", "lift", "hold")
+
+    def __init__(
+        self,
+        rng=None,
+        *,
+        control_hz: float = 20.0,
+        state_names=None,
+        squeeze_force: tuple[float, float] = (18.0, 30.0),
+        close_rate: tuple[float, float] = (0.4, 0.6),
+        lift_height: tuple[float, float] = (0.10, 0.13),
+        tremor: float = 0.001,
+        aim_error: float = 0.003,
+    ):
+        super().__init__(rng, control_hz=control_hz, state_names=state_names)
+        self.squeeze_force = squeeze_force
+        self.close_rate = close_rate
+        self.lift_height = lift_height
+        self.tremor = tremor
+        self.aim_error = aim_error
+
+    # ---- observation helpers -------------------------------------------------------------------------
+    def object_pose(self, obs: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Centre (3,), rotation matrix (3, 3) and half extents (3,) of the object (base frame)."""
+        from ..geometry import quat_to_matrix
+
+        c = np.array([self.state(obs, n) for n in ("obj_x", "obj_y", "obj_z")])
+        q = np.array([self.state(obs, n) for n in ("obj_qw", "obj_qx", "obj_qy", "obj_qz")])
+        h = np.array([self.state(obs, n) for n in ("obj_hx", "obj_hy", "obj_hz")])
+        return c, quat_to_matrix(q), h
+
+    def grasp_point(self, obs: dict) -> tuple[np.ndarray, float]:
+        """TCP grasp target (3,) and the object's top height (m), from its oriented bounding box."""
+        from .robots.three_finger_gripper import PAD_RADIUS, PALM_LENGTH, TCP_Z
+
+        c, rot, h = self.object_pose(obs)
+        top = c[2] + np.abs(rot[2]) @ h
+        axis = rot[:, int(np.argmax(np.abs(rot[2]) * h))]
+        axis = axis if axis[2] >= 0 else -axis
+        reach = TCP_Z - PALM_LENGTH  # TCP to the palm's face
+        z = max(c[2], top - reach + 0.012)  # as low as the palm allows: a stable grasp
+        point = c + axis * (z - c[2]) / max(axis[2], 0.3)
+        point[2] = max(z, PAD_RADIUS + 0.006) + 0.004  # pads sit ~4 mm below the TCP when closing
+        return point, float(top)
+
+    def max_finger_force(self, obs: dict) -> float:
+        from ..layout import ENV_FINGER_FORCE
+
+        f = np.asarray(obs[ENV_FINGER_FORCE], float).reshape(-1, 3)
+        return float(np.linalg.norm(f, axis=1).max())
+
+    # ---- episode -----------------------------------------------------------------------------------------
+    def reset(self, obs: dict) -> None:
+        r = self.rng
+        self.t = 0.0
+        self.start = np.asarray(obs[ENV_EE_POSE][EE_POS], float)
+        self.quat = np.asarray(obs[ENV_EE_POSE][EE_QUAT], float)
+        self.target_force = float(r.uniform(*self.squeeze_force))
+        self.rate = float(r.uniform(*self.close_rate))
+        self.lift = float(r.uniform(*self.lift_height))
+        angle = r.uniform(0, 2 * np.pi)
+        self.aim = r.uniform(0, self.aim_error) * np.array([np.cos(angle), np.sin(angle), 0.0])
+        self.noise = SmoothNoise(r, [self.tremor] * 3)
+        self.speed = float(r.uniform(0.10, 0.13))
+        self.last_pos = self.start.copy()
+        self.grip = 0.0
+        self.plan = None
+        self.plan_t0 = 0.0
+        self.squeeze_done_t = None
+        self.achieved_force = 0.0
+        self.phase = self.phases[0]
+        self.reset_pregrasp(obs)
+
+    def describe(self) -> dict[str, float]:
+        return {
+            "squeeze_force_target_N": self.target_force,
+            "squeeze_force_reached_N": self.achieved_force,
+            "grip_command": self.grip,
+            "close_rate_per_s": self.rate,
+            "lift_height_m": self.lift,
+        }
+
+    @abc.abstractmethod
+    def reset_pregrasp(self, obs: dict) -> None: ...
+
+    @abc.abstractmethod
+    def act_pregrasp(self, obs: dict) -> tuple[np.ndarray, float] | None:
+        """Target and gripper command during the pre-grasp phases; None once they are over."""
+
+    def _replan(self, segments: list[Segment], gripper: float) -> None:
+        self.plan = PathPlan(self.last_pos, segments, gripper=gripper)
+        self.plan_t0 = self.t
+
+    def _sample(self) -> tuple[np.ndarray, float, str]:
+        pos, grip, i = self.plan.sample(self.t - self.plan_t0)
+        return pos, grip, self.plan.segments[i].phase
+
+    def _plan_grasp(self, obs: dict) -> None:
+        r = self.rng
+        point, top = self.grasp_point(obs)
+        self.grasp_target = point + self.aim
+        above = self.grasp_target.copy()
+        above[2] = max(point[2] + 0.06, top + 0.05)
+        self._replan(
+            [
+                Segment(above, _duration(self.last_pos, above, r.uniform(1.2, 1.6), self.speed * 1.5), "reach", 0.0),
+                Segment(self.grasp_target, _duration(above, self.grasp_target, r.uniform(1.0, 1.3), self.speed), "descend"),
+            ],
+            gripper=0.0,
+        )  # fmt: skip
+        self.grip = 0.0
+
+    def act(self, obs: dict) -> np.ndarray:
+        self.t += self.dt
+        if self.phase in self.pregrasp_phases:
+            out = self.act_pregrasp(obs)
+            if out is not None:
+                pos, grip = out
+                self.last_pos = pos
+                return self._action(pos, self.quat, grip)
+            self._plan_grasp(obs)
+        if self.phase in ("reach", "descend"):
+            pos, grip, phase = self._sample()
+            self.phase = phase
+            if self.t - self.plan_t0 >= self.plan.duration:
+                self.phase = "grasp"
+        if self.phase == "grasp":
+            pos = self.grasp_target
+            force = self.max_finger_force(obs)
+            if self.squeeze_done_t is None:
+                if force >= self.target_force or self.grip >= 1.0:
+                    self.squeeze_done_t = self.t
+                    self.achieved_force = force
+                else:
+                    self.grip = min(1.0, self.grip + self.rate * self.dt)
+            elif self.t - self.squeeze_done_t >= 0.3:
+                up = self.grasp_target + [0.0, 0.0, self.lift]
+                self._replan(
+                    [
+                        Segment(up, _duration(pos, up, self.rng.uniform(1.2, 1.6), self.speed), "lift"),
+                        Segment(up, 100.0, "hold"),
+                    ],
+                    gripper=self.grip,
+                )
+                self.phase = "lift"
+            self.last_pos = pos
+            return self._action(pos, self.quat, self.grip)
+        pos, _, phase = self._sample()
+        self.phase = phase
+        self.last_pos = pos
+        noise = self.noise(self.t) if self.phase in ("reach", "lift", "hold") else np.zeros(3)
+        grip = self.grip if self.phase in ("lift", "hold") else 0.0
+        return self._action(pos + noise, self.quat, grip)
+
+
+class GraspFlipDemonstrator(GraspDemonstrator):
+    """Flips the standing carton: a fist pushes its upper part sideways (+y) until it falls, then grasps."""
+
+    task = "grasp_flip"
+    pregrasp_phases = ("approach", "flip", "retreat")
+    phases = (*pregrasp_phases, *GraspDemonstrator.GRASP_PHASES)
+
+    def reset_pregrasp(self, obs: dict) -> None:
+        from .robots.three_finger_gripper import PAD_RADIUS, TCP_Z, pad_position
+
+        r = self.rng
+        c, rot, h = self.object_pose(obs)
+        extent = np.abs(rot) @ h  # half extents along the base axes
+        top = c[2] + extent[2]
+        half_y = extent[1]
+        self.push_depth = 0.0
+        if extent[2] < 1.5 * extent[:2].min():  # not a standing object (the unseen apple, banana): just grasp
+            self.plan = PathPlan(self.start, [Segment(self.start, 0.2, "retreat")], gripper=0.0)
+            self.plan_t0 = self.t
+            return
+        # the fist's +y pad pushes: finger 2 (the tool-down hand maps gripper -y to world +y)
+        p = pad_position("finger2", 1.0)
+        pad = np.array([p[0], -p[1], TCP_Z - p[2]])  # pad centre relative to the TCP (world, tool down)
+        z = float(np.clip(top * r.uniform(0.72, 0.82), 0.03, None))
+        contact_y = c[1] - half_y
+        first = np.array([c[0], contact_y - PAD_RADIUS - 0.03, z]) - pad
+        over = first + [0.0, 0.0, 0.08]
+        self.push_depth = float(r.uniform(0.08, 0.1))
+        end = first + [0.0, self.push_depth + 0.03, 0.0]
+        up = end + [0.0, -0.02, r.uniform(0.1, 0.13)]
+        self._replan(
+            [
+                Segment(over, _duration(self.start, over, r.uniform(1.3, 1.7), self.speed * 1.5), "approach", 1.0),
+                Segment(first, r.uniform(0.7, 0.9), "approach"),
+                Segment(end, float(np.linalg.norm(end - first)) / r.uniform(0.04, 0.06), "flip"),
+                Segment(up, r.uniform(1.0, 1.3), "retreat", 0.0),
+                Segment(up, r.uniform(0.4, 0.6), "retreat"),
+            ],
+            gripper=1.0,
+        )  # fmt: skip
+
+    def describe(self) -> dict[str, float]:
+        return {**super().describe(), "push_depth_m": self.push_depth}
+
+    def act_pregrasp(self, obs: dict):
+        pos, grip, phase = self._sample()
+        if self.t - self.plan_t0 >= self.plan.duration:
+            return None
+        self.phase = phase
+        noise = self.noise(self.t) if phase == "approach" else np.zeros(3)
+        return pos + noise, grip
+
+
+DEMONSTRATORS["grasp_flip"] = GraspFlipDemonstrator
+
+
+class GraspPushDemonstrator(GraspDemonstrator):
+    """Pushes the book against the wall until it stands upright, then grasps it.
+
+    The closed hand (a fist) pushes with its thumb pad, closed-loop on the book's observed pose (a person
+    watching the book): ``slide`` pushes the rear face horizontally (3-4.5 cm/s) until the book meets the
+    wall; ``tip`` keeps the pad on the book's rear-top edge and leads it by 4-6 mm along a direction
+    between the face normal and the edge's circle about the pivot (the book's front-bottom edge at the
+    wall): the pad's normal force lifts the edge while pressing the book against the wall (10-16 N on the
+    thumb pad). At 83-86 degrees of tilt the hand backs off, then opens; the book stands upright. Objects
+    that are not long and flat in the push direction (the unseen apple and banana) are only slid to the wall.
+    """
+
+    task = "grasp_push"
+    pregrasp_phases = ("approach", "slide", "tip", "retreat")
+    phases = (*pregrasp_phases, *GraspDemonstrator.GRASP_PHASES)
+
+    def reset_pregrasp(self, obs: dict) -> None:
+        from .robots.three_finger_gripper import PAD_RADIUS, TCP_Z, pad_position
+
+        r = self.rng
+        p = pad_position("thumb", 1.0)
+        self.pad = np.array([p[0], -p[1], TCP_Z - p[2]])  # thumb pad centre relative to the TCP, tool down
+        self.pad_radius = PAD_RADIUS
+        self.lead = float(r.uniform(0.004, 0.006))
+        self.face_offset = 0.008  # m below the rear-top edge (slide phase)
+        self.slide_speed = float(r.uniform(0.03, 0.045))
+        self.tip_speed = 0.08
+        self.stop_angle = float(np.deg2rad(r.uniform(83.0, 86.0)))
+        self.wall = np.array([self.state(obs, n) for n in ("wall_x", "wall_y", "wall_z")])
+        c, rot, h = self.object_pose(obs)
+        extent = 2 * np.abs(rot) @ h  # world-axis extents
+        self.tippable = extent[0] > 2.5 * extent[2]
+        edge = self._rear_edge(obs)
+        first = edge + [-self.pad_radius - 0.025, 0.0, -0.008] - self.pad
+        over = first + [0.0, 0.0, 0.06]
+        self._replan(
+            [
+                Segment(over, _duration(self.start, over, r.uniform(1.3, 1.7), self.speed * 1.5), "approach", 1.0),
+                Segment(first, r.uniform(0.7, 0.9), "approach"),
+            ],
+            gripper=1.0,
+        )  # fmt: skip
+        self.mode = "approach"
+        self.target = None
+        self.prev_front = None
+        self.still_steps = 0
+        self.max_tilt = 0.0
+
+    def describe(self) -> dict[str, float]:
+        return {
+            **super().describe(),
+            "push_lead_m": self.lead,
+            "max_tilt_deg": float(np.rad2deg(self.max_tilt)),
+        }
+
+    def _rear_edge(self, obs: dict) -> np.ndarray:
+        """Top of the object's rear (robot-side) face, at its centre (base frame)."""
+        c, rot, h = self.object_pose(obs)
+        if self.tippable:  # the book: local -x end, top face (local +z, or whichever points up)
+            up = np.sign(rot[2, 2]) if abs(rot[2, 2]) > 1e-6 else 1.0
+            return c + rot @ np.array([-h[0], 0.0, up * h[2]])
+        extent = np.abs(rot) @ h
+        return np.array([c[0] - extent[0], c[1], c[2] + 0.6 * extent[2]])
+
+    def _tilt(self, obs: dict) -> float:
+        _, rot, _ = self.object_pose(obs)
+        return float(np.arcsin(np.clip(-rot[2, 0], -1.0, 1.0)))  # the book's rear end (local -x) up
+
+    def _step_toward(self, goal: np.ndarray, speed: float) -> np.ndarray:
+        step = goal - self.target
+        dist = float(np.linalg.norm(step))
+        limit = speed * self.dt
+        self.target = self.target + (step if dist <= limit else step * (limit / dist))
+        return self.target
+
+    def act_pregrasp(self, obs: dict):
+        r = self.rng
+        if self.mode == "approach":
+            pos, grip, phase = self._sample()
+            self.phase = phase
+            if self.t - self.plan_t0 < self.plan.duration:
+                return pos + self.noise(self.t), grip
+            self.mode = self.phase = "slide"
+            self.target = pos
+        if self.mode == "slide":
+            edge = self._rear_edge(obs)
+            c, rot, h = self.object_pose(obs)
+            front = c[0] + (np.abs(rot[0]) @ h)
+            moved = self.prev_front is not None and abs(front - self.prev_front) > 2e-4
+            self.still_steps = 0 if moved or self.prev_front is None else self.still_steps + 1
+            self.prev_front = front
+            goal = edge + [-self.pad_radius + self.lead, 0.0, -self.face_offset] - self.pad
+            pos = self._step_toward(goal, self.slide_speed)
+            at_wall = front >= self.wall[0] - 0.003 or self.still_steps >= 6
+            if at_wall and self.tippable:
+                # pushing on horizontally would only press the book into the wall: the pad's friction
+                # holds its rear face down; from here the pad rides up with the edge
+                self.mode = self.phase = "tip"
+            elif at_wall and self.still_steps >= 6:
+                self.mode = "retreat"
+                self._plan_retreat(r)
+            return pos, 1.0
+        if self.mode == "tip":
+            c, rot, h = self.object_pose(obs)
+            tilt = self._tilt(obs)
+            self.max_tilt = max(self.max_tilt, tilt)
+            if tilt >= self.stop_angle:
+                self.mode = "retreat"
+                self._plan_retreat(r)
+            else:
+                edge = self._rear_edge(obs)
+                pivot = c + rot @ np.array([h[0], 0.0, -np.sign(rot[2, 2]) * h[2]])
+                arm = edge - pivot
+                # the edge's motion for a rear-up rotation about +y (about the pivot)
+                tangent = np.array([arm[2], 0.0, -arm[0]])
+                tangent /= np.linalg.norm(tangent)
+                into = rot[:, 0]  # local +x: into the rear face
+                u = into + 1.5 * tangent
+                u /= np.linalg.norm(u)
+                # the pad presses on the edge from below-behind (its normal force lifts the edge), leading by
+                # `lead` along u
+                goal = edge - (self.pad_radius - self.lead) * u - self.pad
+                return self._step_toward(goal, self.tip_speed), 1.0
+        if self.mode == "retreat":
+            pos, grip, phase = self._sample()
+            self.phase = phase
+            if self.t - self.plan_t0 < self.plan.duration:
+                return pos, grip
+            return None
+        return self.target, 1.0
+
+    def _plan_retreat(self, r: np.random.Generator) -> None:
+        self.phase = "retreat"
+        self.last_pos = self.target.copy()
+        back = self.target + [-r.uniform(0.03, 0.045), 0.0, r.uniform(0.02, 0.03)]
+        up = back + [0.0, 0.0, r.uniform(0.03, 0.05)]
+        # back off with the fist closed; open only when clear (the fingers swing out as they open)
+        self._replan(
+            [
+                Segment(back, r.uniform(0.6, 0.8), "retreat", 1.0),
+                Segment(up, r.uniform(0.5, 0.7), "retreat", 0.0),
+                Segment(up, r.uniform(0.2, 0.4), "retreat"),
+            ],
+            gripper=1.0,
+        )
+
+
+DEMONSTRATORS["grasp_push"] = GraspPushDemonstrator

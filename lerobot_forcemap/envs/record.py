@@ -1,6 +1,6 @@
 """``forcemap record``: scripted demonstrations of a sim task into a LeRobot v3 dataset.
 
-    forcemap record --task press --episodes 5 --seed 0 --out datasets/press [--images]
+    forcemap record --task press --episodes 5 --seed 0 --out datasets/press [--images] [--object apple]
 
 Episode ``e`` runs the env with seed ``seed + k`` (k counts attempts) and a demonstrator whose
 generator is spawned from the same seed. Failed demonstrations are not written (the paper excluded
@@ -95,6 +95,7 @@ def record_demonstrations(
     overwrite: bool = False,
     max_attempts: int | None = None,
     progress: bool = True,
+    object_name: str | None = None,
 ) -> RecordResult:
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
     from tqdm import tqdm
@@ -110,7 +111,14 @@ def record_demonstrations(
             raise ValueError(f"{root} exists; pass overwrite=True (--overwrite) to replace it")
         shutil.rmtree(root)
     entry = task_entry(task)
-    env = make(task, obs_type="pixels_state" if images else "state", render_mode=None, image_size=image_size)
+    env_kwargs = {} if object_name is None else {"object": object_name}
+    env = make(
+        task,
+        obs_type="pixels_state" if images else "state",
+        render_mode=None,
+        image_size=image_size,
+        **env_kwargs,
+    )
     base = env.unwrapped
     names = base.state_names
     fingers = ENV_FINGER_FORCE in names
@@ -201,10 +209,28 @@ def _summary(episodes: list[dict[str, Any]]) -> dict[str, Any]:
             "min": float(v.min()),
             "max": float(v.max()),
         }
-    for key in ("max_contact_force_xyz", "mean_contact_force_xyz"):
+    for key in ("max_contact_force_xyz", "mean_contact_force_xyz", "max_finger_force", "mean_finger_force"):
+        if key not in episodes[0]:  # finger forces: grippers with fingertip sensors only
+            continue
         v = np.array([e[key] for e in episodes], dtype=float)
         out[key] = {"mean": v.mean(axis=0).tolist(), "std": v.std(axis=0).tolist()}
     return out
+
+
+def _finger_summary(s: dict[str, Any]) -> str:
+    """Per-finger max / mean fingertip force (mean ± std over episodes), for the dataset card."""
+    parts = []
+    for i, (mx, sx, mn, sn) in enumerate(
+        zip(
+            s["max_finger_force"]["mean"],
+            s["max_finger_force"]["std"],
+            s["mean_finger_force"]["mean"],
+            s["mean_finger_force"]["std"],
+            strict=True,
+        )
+    ):
+        parts.append(f"f{i}: max {mx:.1f} ± {sx:.1f} N, mean {mn:.2f} ± {sn:.2f} N")
+    return "; ".join(parts) + " per episode"
 
 
 def _write_metadata(result: RecordResult, base, demo_cls, fps: int, images: bool) -> None:
@@ -225,6 +251,7 @@ def _write_metadata(result: RecordResult, base, demo_cls, fps: int, images: bool
         },
         "force_filter_cutoff_hz": base.force_cutoff_hz,
         "force_limit_N": t.force_limit,
+        "finger_force_limit_N": t.finger_force_limit,
         "success_test": t.success_test,
         "demonstrator": demo_cls.__name__ if demo_cls else None,
         "phases": list(demo_cls.phases) if demo_cls else [],
@@ -233,6 +260,20 @@ def _write_metadata(result: RecordResult, base, demo_cls, fps: int, images: bool
     }
     (result.root / "meta" / EPISODES_FILE).write_text(json.dumps(meta, indent=1))
     s = meta["summary"]
+    stop = f"filtered contact force > {t.force_limit:g} N"
+    extra: dict[str, str] = {}
+    if t.finger_force_limit is not None:
+        stop += f", or a filtered fingertip force > {t.finger_force_limit:g} N"
+    if "max_finger_force" in s:
+        extra["fingertip forces"] = _finger_summary(s)
+        extra[f"`{OBS_FINGER_FORCE}`"] = (
+            "per fingertip (f0 thumb, f1, f2) the low-passed net contact force on the finger's distal link, "
+            "N, base frame, reaction on the robot (the force the object exerts on the finger); arm and "
+            "gripper streams share the frames: `action` holds the TCP target and the gripper command "
+            "(index 7), `observation.state` the joints and the gripper closure"
+        )
+    if hasattr(t, "obj"):
+        extra["object"] = t.obj.description
     write_dataset_card(
         result.root,
         title=f"forcemap sim: {result.task} — scripted demonstrations",
@@ -242,7 +283,7 @@ def _write_metadata(result: RecordResult, base, demo_cls, fps: int, images: bool
         extra={
             "task": base.task_description,
             "success test": t.success_test,
-            "protective stop": f"filtered contact force > {t.force_limit:g} N",
+            "protective stop": stop,
             "controller": f"Cartesian impedance at {1 / base.timestep:.0f} Hz, K = {list(base.gains.stiffness_pos)} N/m",
             "demonstration forces": f"max {s['max_contact_force']['mean']:.1f} ± {s['max_contact_force']['std']:.1f} N, "
             f"mean {s['mean_contact_force']['mean']:.2f} ± {s['mean_contact_force']['std']:.2f} N per episode",
@@ -251,6 +292,7 @@ def _write_metadata(result: RecordResult, base, demo_cls, fps: int, images: bool
             + ", ".join(f"{i} {p}" for i, p in enumerate(meta["phases"])),
             "per-episode metrics": f"meta/{EPISODES_FILE}",
             "images": "observation.images.front (front camera)" if images else "none (state only)",
+            **extra,
         },
         tags=["simulation", "mujoco", result.task],
     )
@@ -274,6 +316,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--max-attempts", type=int, default=None, help="give up after this many episodes (default 3x)"
     )
+    parser.add_argument(
+        "--object", default=None, help="grasping tasks: the object (default: the task's demonstration object)"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -287,6 +332,7 @@ def run(args: argparse.Namespace) -> int:
         repo_id=args.repo_id,
         overwrite=args.overwrite,
         max_attempts=args.max_attempts,
+        object_name=args.object,
     )
     s = _summary(result.episodes)
     print(

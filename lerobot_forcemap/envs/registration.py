@@ -28,6 +28,13 @@ TASKS: dict[str, TaskEntry] = {
     "peg_in_hole": TaskEntry(
         f"{NAMESPACE}/PegInHole-v0", "lerobot_forcemap.envs.tasks.peg_in_hole:PegInHoleEnv", 400
     ),
+    # Kinova Gen3 + three-finger gripper; env kwarg ``object=`` picks the object (tasks/grasping.py)
+    "grasp_push": TaskEntry(
+        f"{NAMESPACE}/GraspPush-v0", "lerobot_forcemap.envs.tasks.grasp_push:GraspPushEnv", 500
+    ),
+    "grasp_flip": TaskEntry(
+        f"{NAMESPACE}/GraspFlip-v0", "lerobot_forcemap.envs.tasks.grasp_flip:GraspFlipEnv", 400
+    ),
 }
 
 
