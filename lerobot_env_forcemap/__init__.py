@@ -1,4 +1,5 @@
-"""LeRobot env plugin: ``EnvConfig``s ``forcemap_press``, ``forcemap_erase``, ``forcemap_peg_in_hole``.
+"""LeRobot env plugin: ``EnvConfig``s ``forcemap_press``, ``forcemap_erase``, ``forcemap_peg_in_hole``,
+``forcemap_grasp_push`` and ``forcemap_grasp_flip`` (the latter two take ``--env.object=apple|banana``).
 
 Importing it registers the gym ids (``import lerobot_forcemap.envs``, no MuJoCo import) and, when
 LeRobot is installed, the env types (``configs.py``). ``lerobot_policy_forcemap`` imports this package,
