@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import logging
 import sys
 
 # name -> (module, one-line help)
@@ -30,6 +31,26 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
+class _CondenseTorchcodecWarning(logging.Filter):
+    """LeRobot logs a page-long traceback when torchcodec finds no system FFmpeg and then falls back to
+    pyav; state-only datasets never decode video, so one line says enough."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if str(record.msg).startswith("Could not load libtorchcodec"):
+            record.msg = (
+                "torchcodec could not load the system FFmpeg; LeRobot decodes videos with pyav instead"
+            )
+            record.args = ()
+        return True
+
+
+def quiet_torchcodec_warning() -> None:
+    """Install the one-line torchcodec note on LeRobot's import logger (idempotent)."""
+    logger = logging.getLogger("lerobot.utils.import_utils")
+    if not any(isinstance(f, _CondenseTorchcodecWarning) for f in logger.filters):
+        logger.addFilter(_CondenseTorchcodecWarning())
+
+
 def build_parser(argv: list[str]) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="forcemap", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
@@ -44,6 +65,7 @@ def build_parser(argv: list[str]) -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser(argv).parse_args(argv)
+    quiet_torchcodec_warning()
     module = importlib.import_module(SUBCOMMANDS[args.command][0])
     return int(module.run(args) or 0)
 
