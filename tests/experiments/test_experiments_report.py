@@ -1,0 +1,115 @@
+"""``scripts/experiments/report.py``: the learned-baseline merge, the target checks and the tables."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+import pytest
+
+from tests.conftest import REPO_ROOT
+
+sys.path.insert(0, str(REPO_ROOT / "scripts" / "experiments"))
+
+import report  # noqa: E402
+
+
+def _stat(mean):
+    return {"mean": list(mean), "std": [0.0] * len(mean)}
+
+
+def _episode(seed, ok, fmax, fmean):
+    return {
+        "seed": seed,
+        "success": ok,
+        "protective_stop": False,
+        "termination_reason": "success" if ok else "not_pressed",
+        "max_contact_force": fmax,
+        "mean_contact_force": fmean,
+        "max_contact_force_xyz": [0.0, 0.0, fmax],
+        "mean_contact_force_xyz": [0.0, 0.0, fmean],
+    }
+
+
+def test_learned_records_merge_done_and_pending(tmp_path):
+    eps = [_episode(1000 + i, i % 4 != 0, 30.0 + i, 5.0) for i in range(20)]
+    doc = {
+        "task": "press",
+        "method": "act",
+        "n": 20,
+        "seeds": list(range(1000, 1020)),
+        "success_rate": 0.75,
+        "train_steps": 4000,
+        "train_wall_time_s": 1234.0,
+        "episodes": eps,
+    }
+    (tmp_path / "press__act.json").write_text(json.dumps(doc))
+    demos = {
+        "press": [
+            {"max_contact_force": 50.0, "mean_contact_force": 10.0},
+            {"max_contact_force": 70.0, "mean_contact_force": 10.0},
+        ]
+    }
+    recs = report.learned_records(tmp_path, demos)
+    assert len(recs) == 6  # 3 tasks x 2 methods
+    act = next(r for r in recs if r["task"] == "press" and r["method"] == "act")
+    assert act["status"] == "done" and act["n"] == 20 and act["success_rate"] == pytest.approx(0.75)
+    assert act["failures"] == {"not_pressed": 5}
+    assert act["max_contact_force"]["mean"] == pytest.approx(39.5)
+    assert act["change_vs_demo"]["max_contact_force"]["pooled"] == pytest.approx(100 * (39.5 / 60.0 - 1))
+    assert act["train_wall_time_s"] == 1234.0
+    pending = [r for r in recs if r["status"] == "pending"]
+    assert len(pending) == 5 and {r["experiment"] for r in pending} == {"table2", "peg"}
+    lines = "\n".join(report.table2_md(recs, "press"))
+    assert "pending" in lines and "-84.35%" in lines and "-66.64%" in lines
+
+
+def _t2(task, method, dmax, dmean, success, coverage=None):
+    rec = {
+        "experiment": "table2",
+        "task": task,
+        "method": method,
+        "success_rate": success,
+        "change_vs_demo": {"max_contact_force": {"mean": dmax}, "mean_contact_force": {"mean": dmean}},
+        "metric_means": {} if coverage is None else {"coverage": coverage},
+    }
+    return rec
+
+
+def _peg(method, six):
+    return {
+        "experiment": "peg",
+        "task": "peg_in_hole",
+        "method": method,
+        "max_contact_force_xyz": _stat(list(six[:3])),
+        "mean_contact_force_xyz": _stat(list(six[3:])),
+    }
+
+
+def test_targets_are_checked_against_the_papers_numbers():
+    recs = [
+        _t2("press", "ours", -85.0, -70.0, 0.97),
+        _t2("press", "ours_limit", -85.0, -70.0, 0.90),  # success too low
+        _t2("erase", "ours", -40.0, -33.0, 1.0, coverage=0.95),
+        _t2("erase", "ours_limit", -40.0, -31.0, 1.0, coverage=0.95),  # mean not down 32%
+        _peg("hybrid", [3, 3, 12, 0.2, 0.2, 0.5]),
+        _peg("ours", [2, 2, 10, 0.1, 0.1, 0.4]),
+    ]
+    t = {(x["target"].split(":")[0], x["method"]): x["met"] for x in report.targets(recs)}
+    assert t[("press", "ours")] and not t[("press", "ours_limit")]
+    assert t[("erase", "ours")] and not t[("erase", "ours_limit")]
+    assert t[("peg_in_hole", "ours")]
+    recs[-1] = _peg("ours", [2, 2, 13, 0.1, 0.1, 0.4])  # Z max above the hybrid's
+    peg = next(x for x in report.targets(recs) if x["target"].startswith("peg"))
+    assert not peg["met"] and "Z max >=" in peg["value"]
+
+
+def test_table3_has_the_papers_rows_and_our_spreads():
+    recs = [_peg("hybrid", np.arange(6.0)), _peg("ours", np.arange(6.0) / 2)]
+    recs[0].update(label="hybrid", n=200, success_rate=1.0, success_ci95=[0.98, 1.0], protective_stops=0)
+    recs[1].update(label="ours", n=200, success_rate=1.0, success_ci95=[0.98, 1.0], protective_stops=0)
+    lines = report.table3_md(recs)
+    assert any(line.startswith("| **paper: Control** |") and "44.01" in line for line in lines)
+    ours = next(line for line in lines if line.startswith("| ours |"))
+    assert "1.00 ± 0.00" in ours and "100% [98, 100]" in ours
