@@ -9,6 +9,11 @@ Raw env keys map to LeRobot keys as ``lerobot.envs.utils.preprocess_observation`
 
 Defaults render videos (``render_mode="rgb_array"``, 256 px front camera, no shadows); ``obs_type=
 "pixels_state"`` adds 128 px camera observations. fps = the task's control rate (20 Hz).
+
+``--env.env_state_extras=ee_pose,force`` (default empty) adds an env processor that appends those
+observations to ``observation.environment_state`` — how force reaches ACT / Diffusion, which read only
+state, environment state and images (``env_state.py``; the training side is a derived dataset,
+``lerobot_forcemap.experiments.learned.derive_env_state_dataset``).
 """
 
 from __future__ import annotations
@@ -62,7 +67,9 @@ def task_features(task: str, *, obs_type: str = "state", image_size: int = 128, 
     return features, features_map
 
 
-def _extend_env_state_feature(features: dict[str, PolicyFeature], extras_spec: str) -> dict[str, PolicyFeature]:
+def _extend_env_state_feature(
+    features: dict[str, PolicyFeature], extras_spec: str
+) -> dict[str, PolicyFeature]:
     """The env's features as the policy sees them after the env processor (environment_state grown
     by the extras' sizes); unchanged when ``extras_spec`` is empty."""
     from .env_state import ENV_STATE_EXTRA_KEYS, parse_env_state_extras

@@ -127,7 +127,9 @@ class EnvStateExtrasProcessorStep(ObservationProcessorStep):
         for e in self.extras:
             key = ENV_STATE_EXTRA_KEYS[e]
             if key not in obs:
-                raise ValueError(f"EnvStateExtrasProcessorStep: feature {key!r} (extra {e!r}) is not declared")
+                raise ValueError(
+                    f"EnvStateExtrasProcessorStep: feature {key!r} (extra {e!r}) is not declared"
+                )
             size += obs[key].shape[-1]
         new = dict(features)
         new_obs = dict(obs)

@@ -2,12 +2,14 @@
 demonstrations' same figures.
 
     forcemap eval --policy outputs/press_policy --task press --episodes 20 --seed 1000 --json outputs/eval.json \
-        [--dataset datasets/press] [--trace] [--video-dir outputs/videos --videos 1]
+        [--dataset datasets/press] [--trace] [--video-dir outputs/videos --videos 1] [--env-state-extras ee_pose,force]
 
 The rollout is ``lerobot-eval``'s, one env at a time: ``preprocess_observation`` (raw env keys ->
 ``observation.*``), the checkpoint's saved pre-processor, ``policy.select_action``, the
 post-processor, ``env.step``. Any LeRobot policy checkpoint loads (its ``config.json`` names the
-type), not only ``forcemap``. Episode i uses env seed ``seed + i``. ``lerobot-eval`` reports success
+type), not only ``forcemap``; ``--env-state-extras`` adds the env processor that ACT / Diffusion
+checkpoints trained on a derived dataset need (``lerobot_env_forcemap/env_state.py``). Episode i uses
+env seed ``seed + i``. ``lerobot-eval`` reports success
 only; the force figures come from the env's ``info`` (filtered contact force at physics rate, the
 same statistics the recorder stores per demonstration in ``meta/forcemap_episodes.json``).
 
@@ -84,9 +86,19 @@ def load_policy(path: str | Path, device: str = "cpu"):
 
 
 def rollout(
-    env, policy, pre, post, seed: int, *, trace: bool = False, frames: list | None = None
+    env,
+    policy,
+    pre,
+    post,
+    seed: int,
+    *,
+    trace: bool = False,
+    frames: list | None = None,
+    env_pre=None,
 ) -> dict[str, Any]:
-    """One episode; returns its record. ``frames``: a list that collects ``env.render()`` images."""
+    """One episode; returns its record. ``frames``: a list that collects ``env.render()`` images.
+    ``env_pre``: the env config's pre-processor (``EnvConfig.get_env_processors()[0]``), applied
+    between ``preprocess_observation`` and the policy's pre-processor as ``lerobot-eval`` does."""
     import torch
     from lerobot.envs.utils import preprocess_observation
 
@@ -104,6 +116,8 @@ def rollout(
     while not (terminated or truncated):
         batch = preprocess_observation(obs)
         batch["task"] = [base.task_description]
+        if env_pre is not None:
+            batch = env_pre(batch)
         batch = pre(batch)
         with torch.inference_mode():
             action = policy.select_action(batch)
@@ -178,8 +192,15 @@ def evaluate_policy(
     n_videos: int = 1,
     device: str = "cpu",
     progress: bool = True,
+    env_state_extras: str | Sequence[str] | None = None,
 ) -> list[dict[str, Any]]:
-    """Records of ``episodes`` episodes (seeds seed .. seed+episodes-1); videos of the first ``n_videos``."""
+    """Records of ``episodes`` episodes (seeds seed .. seed+episodes-1); videos of the first ``n_videos``.
+
+    ``env_state_extras`` (e.g. ``"ee_pose,force"``): observation keys appended to
+    ``observation.environment_state`` by the task's env processor, as ``lerobot-eval
+    --env.env_state_extras=...`` does (for ACT / Diffusion trained on a derived dataset, see
+    ``lerobot_env_forcemap/env_state.py``). A checkpoint whose environment_state size differs from
+    the env's (after the extras) raises ValueError."""
     from tqdm.auto import tqdm
 
     from lerobot_forcemap.envs import make
@@ -189,11 +210,16 @@ def evaluate_policy(
     policy, pre, post = load_policy(policy_path, device)
     want_video = video_dir is not None and n_videos > 0
     env = make(task, render_mode="rgb_array" if want_video else None)
+    try:
+        env_pre = _env_preprocessor(task, env, policy, env_state_extras)
+    except Exception:
+        env.close()
+        raise
     records = []
     try:
         for i in tqdm(range(episodes), desc=f"eval {task}", unit="episode", disable=not progress):
             frames = [] if want_video and i < n_videos else None
-            rec = rollout(env, policy, pre, post, seed + i, trace=trace, frames=frames)
+            rec = rollout(env, policy, pre, post, seed + i, trace=trace, frames=frames, env_pre=env_pre)
             rec["episode"] = i
             if frames:
                 rec["video"] = str(
@@ -203,6 +229,44 @@ def evaluate_policy(
     finally:
         env.close()
     return records
+
+
+def _env_preprocessor(task: str, env, policy, env_state_extras):
+    """The task's env pre-processor with ``env_state_extras`` (None when there are none), after
+    checking that the policy's environment_state size equals the env's after the extras."""
+    from lerobot.envs.configs import EnvConfig
+
+    from lerobot_env_forcemap.configs import ENV_TYPES
+    from lerobot_env_forcemap.env_state import ENV_STATE_EXTRA_KEYS, parse_env_state_extras
+    from lerobot_forcemap import layout
+
+    extras = parse_env_state_extras(env_state_extras)
+    extras_spec = ",".join(extras)
+    env_pre = None
+    if extras:
+        if task not in ENV_TYPES:
+            raise ValueError(
+                f"--env-state-extras: task {task!r} has no LeRobot env type (known: {sorted(ENV_TYPES)})"
+            )
+        env_cfg = EnvConfig.get_choice_class(ENV_TYPES[task])(env_state_extras=extras_spec)
+        env_pre, _ = env_cfg.get_env_processors()
+    spaces = getattr(env.observation_space, "spaces", {})
+    wanted = getattr(policy.config, "input_features", {}).get(layout.OBS_ENV_STATE)
+    if wanted is not None and layout.ENV_STATE in spaces:
+        raw_for = {v: k for k, v in layout.ENV_TO_FEATURE.items()}
+        have = spaces[layout.ENV_STATE].shape[0]
+        for e in extras:
+            raw = raw_for[ENV_STATE_EXTRA_KEYS[e]]
+            if raw not in spaces:
+                raise ValueError(f"--env-state-extras: env {task!r} has no observation {raw!r} (extra {e!r})")
+            have += spaces[raw].shape[0]
+        if have != wanted.shape[0]:
+            raise ValueError(
+                f"policy expects observation.environment_state of size {wanted.shape[0]}, env {task!r} gives {have} "
+                f"with env_state_extras={list(extras)} (a checkpoint trained on a derived dataset needs "
+                "--env-state-extras, e.g. ee_pose,force; see lerobot_env_forcemap/env_state.py)"
+            )
+    return env_pre
 
 
 def write_video(frames: Sequence[np.ndarray], path: Path, fps: float) -> Path:
@@ -414,6 +478,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--videos", type=int, default=1)
     parser.add_argument("--device", default="cpu")
+    parser.add_argument(
+        "--env-state-extras",
+        default=None,
+        help="observation keys appended to environment_state before the policy, e.g. ee_pose,force "
+        "(ACT / Diffusion checkpoints trained on a derived dataset; lerobot-eval: --env.env_state_extras)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -426,6 +496,7 @@ def run(args: argparse.Namespace) -> int:
         video_dir=args.video_dir,
         n_videos=args.videos,
         device=args.device,
+        env_state_extras=getattr(args, "env_state_extras", None),
     )
     dataset = args.dataset or _dataset_from_train_config(Path(args.policy))
     doc = evaluation_document(args.policy, args.task, args.seed, records, dataset, demo_trace=args.trace)
