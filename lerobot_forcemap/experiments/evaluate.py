@@ -145,11 +145,13 @@ def rollout(
         "wall_s": time.perf_counter() - t0,
         **{k: _json(info[k]) for k in FORCE_KEYS},
     }
+    # task metrics: scalars and short vectors (e.g. per-finger max/mean forces); the per-step contact
+    # force and the clip reports are not episode figures
     skip = {"is_success", "protective_stop", "termination_reason", "contact_force", *FORCE_KEYS}
     record["metrics"] = {
         k: _json(v)
         for k, v in info.items()
-        if k not in skip and not k.startswith("clip_") and np.ndim(v) == 0
+        if k not in skip and not k.startswith("clip_") and np.ndim(v) <= 1 and np.size(v) <= 16
     }
     if trace:
         record["trace"] = {

@@ -102,3 +102,33 @@ def test_summaries_and_change():
     c = compare(summarize(recs[:1]), s)
     assert c["max_contact_force_change_pct"] == pytest.approx(-50.0)
     assert c["mean_contact_force_xyz_change_pct"] == pytest.approx([-50.0, 0.0, -33.333333])
+
+
+def test_rollout_keeps_per_finger_force_metrics():
+    """Short vector metrics (the Gen3's per-finger max/mean forces) reach the record."""
+    import gymnasium as gym
+    import torch
+
+    import lerobot_forcemap.envs  # noqa: F401
+    from lerobot_forcemap import layout
+    from lerobot_forcemap.experiments.evaluate import rollout
+
+    class HoldPose:
+        """Holds the TCP where it starts and closes the gripper."""
+
+        def reset(self):
+            pass
+
+        def select_action(self, batch):
+            pose = batch[layout.OBS_EE_POSE].reshape(-1)[: layout.EE_POSE_DIM]
+            return torch.cat([pose, torch.ones(1, dtype=pose.dtype)])[None]
+
+    env = gym.make("lerobot_forcemap/GraspPush-v0", max_episode_steps=10)
+    try:
+        rec = rollout(env, HoldPose(), lambda b: b, lambda a: a, seed=0)
+    finally:
+        env.close()
+    assert rec["steps"] == 10
+    assert len(rec["metrics"]["max_finger_force"]) == 3
+    assert len(rec["metrics"]["mean_finger_force"]) == 3
+    assert all(np.isfinite(rec["metrics"]["max_finger_force"]))
