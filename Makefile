@@ -12,7 +12,7 @@ export MKL_NUM_THREADS ?= 1
 export MUJOCO_GL ?= egl
 PYTEST_ARGS ?=
 
-.PHONY: venv test test-fast demo bench experiments datasets segmentation-experiment lint clean
+.PHONY: venv test test-fast demo bench experiments learned-baselines datasets segmentation-experiment lint clean
 
 venv: $(VENV)/.installed
 
@@ -40,9 +40,15 @@ bench: venv
 	$(PY) scripts/bench_elmap.py
 	$(PY) scripts/bench_segmentation.py
 	$(PY) scripts/bench_envs.py
+	$(PY) scripts/bench_policy_fit.py
 
+# Paper experiments (~20 min on 2 cores from an empty cache; cached re-runs only re-aggregate).
 experiments: venv
 	HF_HUB_OFFLINE=1 $(PY) scripts/experiments/run_all.py
+
+# ACT and Diffusion trained with lerobot-train on CPU (~1 h); `make experiments` merges results/learned/.
+learned-baselines: venv
+	HF_HUB_OFFLINE=1 $(PY) scripts/experiments/learned_baselines.py --out results/learned
 
 # Regenerate the shipped datasets of scripted demonstrations (10 episodes each, seed 0).
 DATASET_TASKS ?= press erase peg_in_hole grasp_push grasp_flip
