@@ -43,6 +43,7 @@ def expected_tensors(config: ForceMapConfig) -> dict[str, tuple[tuple[int, ...],
         "gripper_node_times": ((g,), TENSOR_DTYPE, f"({grip},)"),
         "durations": ((s,), TENSOR_DTYPE, "(n_segments,)"),
         "anchor_poses": ((s, 7), TENSOR_DTYPE, "(n_segments, 7)"),
+        "anchor_initial_poses": ((s, 7), TENSOR_DTYPE, "(n_segments, 7)"),
         DUMMY_PARAMETER: ((1,), "F32", "(1,)"),
     }
 

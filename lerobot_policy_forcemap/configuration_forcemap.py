@@ -48,7 +48,14 @@ ELMAP_PARAMS = (
     "time_scale",
 )
 #: gripper-map parameters that ``segment_overrides`` may change per segment
-GRIPPER_PARAMS = ("gripper_lam", "gripper_mu", "gripper_delta", "gripper_f_contact", "gripper_stiffness")
+GRIPPER_PARAMS = (
+    "gripper_lam",
+    "gripper_mu",
+    "gripper_delta",
+    "gripper_f_contact",
+    "gripper_stiffness",
+    "gripper_time_scale",
+)
 SEGMENT_SOURCES = ("auto", "dataset", "none")
 #: segmentation streams (names as in ``lerobot_forcemap.data.segment``) and their default weights
 DEFAULT_STREAM_WEIGHTS = {
@@ -107,15 +114,42 @@ class ForceMapConfig(PreTrainedConfig):
             (no force on it). Beyond the paper: a segment whose path retraces itself (press down,
             lift back up) makes nearest-node clustering mix the two passes and the time law collapse;
             the time coordinate keeps them apart. 0 gives the paper's 3-D map.
-        gripper_*: the same for the 1-D gripper map (delta in gripper units, stiffness in N per
-            unit of closure); finger forces push the gripper coordinate towards "open".
+        gripper_*: the same for the gripper map (delta in gripper units, stiffness in N per unit of
+            closure); finger forces push the gripper coordinate towards "open".
+        gripper_time_scale (gripper units / s): > 0 fits the gripper map in space-time, like the
+            arm's ``time_scale``: (closure, v_g·t) with the finger force on the closure axis only. A
+            1-D map of a step command (open -> closed) has samples at the two levels only; the nodes
+            in between are empty and take times interpolated between the two clusters' mean times,
+            so the step came out as a ramp over half the segment. In space-time the nodes follow the
+            command in time and a step stays a step within one node spacing. 0 gives the 1-D map.
+        gripper_nodes_per_second: nodes of the gripper map per second of segment; None: the
+            dataset fps (one node per control period, so a step reproduces within one period).
 
-    Anchoring at reset:
-        anchor_radius: a segment whose demonstrated positions come within this distance (m) of a
-            static object is stored in that object's frame and moves with it.
-        static_tolerance: objects moving more than this (m) during a demonstration (carried
-            objects) are never anchors.
+    Anchoring:
+        anchor_radius: a segment whose demonstrated positions come within this distance (m) of an
+            object (its position at the same frames) is stored in that object's frame, taken at the
+            segment's first frame, and moves with it.
+        static_tolerance: an object moving more than this (m) during a segment (carried, pushed or
+            settling) is not an anchor of that segment.
+        anchor_by_moved_object: True anchors a segment in which the robot moves an object (carries or
+            pushes one that comes within ``anchor_radius`` of its path) by where that object ends: to
+            the static object nearest to its final position (within ``anchor_radius``; a book pushed
+            upright against a wall is anchored to the wall), or to none (an object lifted into free
+            space or tipped over on the table: the segment follows its neighbours). False: every
+            segment is anchored to the static object nearest to the robot's path.
         reanchor: False replays the demonstration in the base frame (an ablation).
+        reanchor_online: True re-anchors every object-anchored segment when it starts, to the object
+            position in that step's ``env_state_key`` observation (objects that moved since reset: a
+            pushed, flipped or other object). At reset the segment is placed where the object is
+            predicted to be (its demonstrated motion up to the segment, moved with the object's
+            displacement at reset); when the segment starts it shifts by the difference between the
+            observed and the predicted position (translation only: an unseen or rolled object's
+            orientation says nothing about the grasp), and the junction with the segment just run is
+            blended into it (``anchoring.reanchor_segment``). False: anchors at reset only.
+        reanchor_tolerance: shifts below this (m) are ignored (a static object re-anchors nothing).
+        reanchor_blend_s: the junction of a re-anchored segment (where the robot was sent vs the
+            shifted path) fades out over this many seconds of the segment, so the object-relative
+            path is followed from then on, not only at the segment's end (None: the whole segment).
 
     Learning: ``episodes`` to learn from (default ``[0]``: one shot); several are mapped together
     segment by segment (their segment counts must agree).
@@ -163,18 +197,24 @@ class ForceMapConfig(PreTrainedConfig):
     max_iter: int = 100
 
     # ---- gripper elastic map
-    gripper_lam: float = 0.01
-    gripper_mu: float = 0.01
+    gripper_lam: float = 0.001
+    gripper_mu: float = 0.001
     gripper_delta: float = 0.05
     gripper_f_contact: float = 0.5
     gripper_stiffness: float = 400.0
+    gripper_time_scale: float = 2.0
+    gripper_nodes_per_second: float | None = None
 
     segment_overrides: dict[int, dict[str, float]] = field(default_factory=dict)
 
     # ---- anchoring
     anchor_radius: float = 0.05
     static_tolerance: float = 0.005
+    anchor_by_moved_object: bool = False
     reanchor: bool = True
+    reanchor_online: bool = True
+    reanchor_tolerance: float = 0.0005
+    reanchor_blend_s: float | None = 1.0
 
     # ---- action chunks (predict_action_chunk)
     chunk_size: int = 10
@@ -246,6 +286,18 @@ class ForceMapConfig(PreTrainedConfig):
         ):
             need(getattr(self, name) >= 0, name, "must be >= 0")
         need(self.time_scale >= 0, "time_scale", "must be >= 0 m/s")
+        need(self.gripper_time_scale >= 0, "gripper_time_scale", "must be >= 0 (gripper units per s)")
+        need(
+            self.gripper_nodes_per_second is None or self.gripper_nodes_per_second > 0,
+            "gripper_nodes_per_second",
+            "must be None or > 0",
+        )
+        need(self.reanchor_tolerance >= 0, "reanchor_tolerance", "must be >= 0 m")
+        need(
+            self.reanchor_blend_s is None or self.reanchor_blend_s > 0,
+            "reanchor_blend_s",
+            "must be None or > 0 s",
+        )
         for name in ("stiffness", "gripper_stiffness", "anchor_radius", "static_tolerance"):
             need(getattr(self, name) > 0, name, "must be > 0")
         need(self.rho_max is None or 0 < self.rho_max < 1, "rho_max", "must be None or in (0, 1)")

@@ -4,12 +4,17 @@
    position, wrist-force, joint, gripper and finger-force streams with the window scaled to the
    dataset fps; or the dataset's ``segment_index`` column; or one segment. Several episodes are
    aligned segment by segment, so their segment counts must agree.
-2. Anchor: a segment whose (first) demonstration comes within ``anchor_radius`` of a static object
-   (``<obj>_x/_y/_z`` in the environment state) is expressed in that object's frame (positions,
-   forces and orientations), in every episode with that episode's object pose at its first frame.
+2. Anchor: a segment whose (first) demonstration comes within ``anchor_radius`` of an object
+   (``<obj>_x/_y/_z`` in the environment state, its position at the same frames) that stays within
+   ``static_tolerance`` during the segment in every episode is expressed in that object's frame
+   (positions, forces and orientations), in every episode with that episode's object pose at the
+   segment's first frame: that is the pose the policy observes when the segment starts and
+   re-anchors to. Objects may move between segments (pushed, flipped); an object moving during the
+   segment (carried or pushed by the robot) is not its anchor.
 3. Fit per segment, in parallel in time (paper §IV-C): the arm map (3-D positions with the wrist
-   force points, orientations SLERPed along the time law) and the gripper map (1-D closure with
-   the finger force as a reaction pointing towards "open").
+   force points, orientations SLERPed along the time law; space-time with ``time_scale``) and the
+   gripper map (closure with the finger force as a reaction pointing towards "open"; space-time with
+   ``gripper_time_scale``, ``gripper_nodes_per_second`` nodes per second).
 
 Segment s of an episode with changepoints c is frames ``[c_s, c_{s+1}]`` (the boundary frame is
 shared with the next segment, so consecutive maps meet); the last segment ends at the last frame.
@@ -26,7 +31,14 @@ from numpy.typing import NDArray
 from lerobot_forcemap.elmap import ElasticMapFit, fit_force_elastic_map
 from lerobot_forcemap.segmentation import SegmentationConfig, Stream, segment_streams
 
-from .anchoring import IDENTITY_POSE, ObjectSlot, object_poses, object_slots, to_object_frame
+from .anchoring import (
+    IDENTITY_POSE,
+    ObjectSlot,
+    object_poses,
+    object_positions,
+    object_slots,
+    to_object_frame,
+)
 from .configuration_forcemap import AUTHORS_WINDOW_S, ForceMapConfig
 from .episodes import EpisodeArrays
 from .skill import FittedSkill, SegmentMaps
@@ -38,6 +50,7 @@ __all__ = [
     "segment_episode",
     "static_objects",
     "choose_anchor",
+    "segment_anchor",
     "segment_frames",
     "fit_skill",
 ]
@@ -160,12 +173,23 @@ def segment_frames(changepoints: NDArray[np.int64], s: int) -> NDArray[np.int64]
 
 
 def static_objects(
-    episodes: list[EpisodeArrays], slots: tuple[ObjectSlot, ...], tolerance: float
+    episodes: list[EpisodeArrays],
+    slots: tuple[ObjectSlot, ...],
+    tolerance: float,
+    frames: list[NDArray[np.int64]] | None = None,
 ) -> list[ObjectSlot]:
-    """Objects whose position moves less than ``tolerance`` (m) within every episode (no carried objects)."""
+    """Objects whose position moves less than ``tolerance`` (m) within every episode, or within the
+    given per-episode ``frames`` (one segment): no carried or pushed objects."""
     out = []
     for slot in slots:
-        moved = max(float(np.max(np.ptp(ep.env_state[:, list(slot.position)], axis=0))) for ep in episodes)
+        moved = max(
+            float(
+                np.max(
+                    np.ptp(ep.env_state[slice(None) if fr is None else fr][:, list(slot.position)], axis=0)
+                )
+            )
+            for ep, fr in zip(episodes, frames or [None] * len(episodes), strict=True)
+        )
         if moved < tolerance:
             out.append(slot)
     return out
@@ -174,19 +198,62 @@ def static_objects(
 def choose_anchor(
     positions: Array, poses: dict[str, Array], candidates: list[ObjectSlot], radius: float
 ) -> str:
-    """The nearest candidate object coming within ``radius`` of the positions ``(T, 3)``, or ""."""
+    """The nearest candidate object coming within ``radius`` of the positions ``(T, 3)``, or "".
+
+    ``poses[name]``: the object's pose ``(7,)``, or its poses at the same frames ``(T, 7)``."""
     best, best_d = "", np.inf
     for slot in candidates:
-        d = float(np.min(np.linalg.norm(positions - poses[slot.name][:3], axis=1)))
+        d = float(np.min(np.linalg.norm(positions - np.asarray(poses[slot.name])[..., :3], axis=-1)))
         if d < radius and d < best_d:
             best, best_d = slot.name, d
     return best
+
+
+def segment_anchor(
+    positions: Array,
+    env_state: Array,
+    slots: tuple[ObjectSlot, ...],
+    static: list[ObjectSlot],
+    radius: float,
+    *,
+    by_moved_object: bool = False,
+) -> str:
+    """The anchor of one segment (positions ``(T, 3)`` of the robot, environment state ``(T, E)``).
+
+    Only objects at rest during the segment (``static``) can be anchors: the static object nearest to
+    the robot's path, within ``radius``. With ``by_moved_object``, a segment in which the robot moves
+    an object (one that comes within ``radius`` of its path and is not at rest: carried, pushed) is
+    about where that object goes: its anchor is the static object nearest to the moved object's final
+    position (within ``radius``: a book pushed against a wall), or none (an object lifted into free
+    space or tipped over on the table: the segment follows its neighbours)."""
+    rest = {c.name for c in static}
+    moved = [
+        slot
+        for slot in slots
+        if by_moved_object
+        and slot.name not in rest
+        and float(np.min(np.linalg.norm(positions - object_positions(env_state, slot), axis=1))) < radius
+    ]
+    if moved:
+        reference = np.stack([object_positions(env_state, slot)[-1] for slot in moved])
+        track = {c.name: object_positions(env_state, c)[-1] for c in static}
+    else:
+        reference = positions
+        track = {c.name: object_positions(env_state, c) for c in static}
+    return choose_anchor(reference, track, static, radius)
 
 
 def _n_nodes(params: dict, config: ForceMapConfig, duration: float, n_samples: int) -> int:
     if params.get("n_nodes") is not None:
         return int(params["n_nodes"])
     n = int(round(config.nodes_per_second * duration)) + 1
+    return max(int(config.min_nodes), min(n, max(n_samples, 3)))
+
+
+def _n_gripper_nodes(config: ForceMapConfig, fps: float, duration: float, n_samples: int) -> int:
+    """Gripper-map nodes: ``gripper_nodes_per_second`` (default the fps: one per control period)."""
+    rate = fps if config.gripper_nodes_per_second is None else float(config.gripper_nodes_per_second)
+    n = int(round(rate * duration)) + 1
     return max(int(config.min_nodes), min(n, max(n_samples, 3)))
 
 
@@ -214,10 +281,8 @@ def fit_skill(
     n_seg = counts[0]
 
     slots: tuple[ObjectSlot, ...] = ()
-    candidates: list[ObjectSlot] = []
     if env_state_names and all(ep.env_state is not None for ep in episodes):
         slots = object_slots(env_state_names)
-        candidates = static_objects(episodes, slots, config.static_tolerance)
     scene = [object_poses(ep.env_state[0], slots) if slots else {} for ep in episodes]
 
     segments, arm_fits, gripper_fits, anchors = [], [], [], []
@@ -229,12 +294,27 @@ def fit_skill(
                     f"episode {ep.episode}, segment {s}: {len(fr)} frame(s); a segment needs >= 2"
                 )
         first = episodes[0]
-        anchor = choose_anchor(first.pose[frames[0], :3], scene[0], candidates, config.anchor_radius)
+        anchor = ""
+        if slots:
+            static = static_objects(episodes, slots, config.static_tolerance, frames)
+            anchor = segment_anchor(
+                first.pose[frames[0], :3],
+                first.env_state[frames[0]],
+                slots,
+                static,
+                config.anchor_radius,
+                by_moved_object=config.anchor_by_moved_object,
+            )
+        # the frame each episode's data is stored in: the anchor's pose at the segment's first frame
+        seg_poses = [
+            object_poses(ep.env_state[fr[0]], slots)[anchor] if anchor else None
+            for ep, fr in zip(episodes, frames, strict=True)
+        ]
         xs, fs, qs, ts, gs, gfs = [], [], [], [], [], []
-        for ep, fr, poses in zip(episodes, frames, scene, strict=True):
+        for ep, fr, pose in zip(episodes, frames, seg_poses, strict=True):
             x, f, q = ep.pose[fr, :3], ep.force[fr], ep.pose[fr, 3:7]
             if anchor:
-                x, f, q = to_object_frame(poses[anchor], x, f, q)
+                x, f, q = to_object_frame(pose, x, f, q)
             xs.append(x)
             fs.append(f)
             qs.append(q)
@@ -251,6 +331,13 @@ def fit_skill(
             fs_fit = [np.column_stack([f, np.zeros(len(f))]) for f in fs]
         else:
             xs_fit, fs_fit = xs, fs
+        ng = _n_gripper_nodes(config, fps, duration, len(frames[0]))
+        vg = float(p["gripper_time_scale"])
+        gfs = gfs if len(gfs) == len(gs) else None
+        if vg > 0:  # space-time gripper map: (closure, v_g t), the finger force on the closure only
+            gs = [np.column_stack([g, vg * t]) for g, t in zip(gs, ts, strict=True)]
+            if gfs is not None:
+                gfs = [np.column_stack([gf, np.zeros(len(gf))]) for gf in gfs]
         try:
             arm = fit_force_elastic_map(
                 xs_fit,
@@ -269,8 +356,8 @@ def fit_skill(
             )
             grip = fit_force_elastic_map(
                 gs,
-                gfs if len(gfs) == len(gs) else None,
-                n_nodes=n,
+                gfs,
+                n_nodes=ng,
                 lam=p["gripper_lam"],
                 mu=p["gripper_mu"],
                 delta=p["gripper_delta"],
@@ -287,11 +374,12 @@ def fit_skill(
                 nodes=arm.nodes[:, :3],
                 node_times=arm.node_times,
                 orientations=arm.orientations,
-                gripper_nodes=grip.nodes,
+                gripper_nodes=grip.nodes[:, :1],
                 gripper_node_times=grip.node_times,
                 duration=duration,
                 anchor=anchor,
-                anchor_pose=scene[0][anchor] if anchor else IDENTITY_POSE.copy(),
+                anchor_pose=seg_poses[0] if anchor else IDENTITY_POSE.copy(),
+                anchor_initial_pose=scene[0][anchor] if anchor else IDENTITY_POSE.copy(),
             )
         )
         arm_fits.append(arm)

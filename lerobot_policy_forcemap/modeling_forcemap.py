@@ -14,6 +14,10 @@ scene of its observation (robot pose ``observation.ee_pose``, object poses from
 ``observation.environment_state``; ``anchoring.py``), one placement per batch element. Each call
 returns the ``[x y z qw qx qy qz gripper]`` target at t = k / fps (k-th call, fps of the dataset,
 which is the env's control rate) and advances k; after the last segment the final pose is held.
+With ``reanchor_online`` the first call at or after the start of an object-anchored segment
+re-anchors that segment to the object's position in that call's observation
+(``anchoring.reanchor_segment``): objects that moved since reset (pushed, flipped, an unseen object
+that moved differently) are followed.
 """
 
 from __future__ import annotations
@@ -28,7 +32,7 @@ import torch
 from lerobot.policies.pretrained import PreTrainedPolicy
 from torch import Tensor, nn
 
-from .anchoring import object_poses, object_slots, place_skill
+from .anchoring import object_poses, object_slots, place_skill, provisional_segments, reanchor_segment
 from .checkpoint import DUMMY_PARAMETER, check_safetensors_file, check_skill_values, expected_tensors
 from .configuration_forcemap import ForceMapConfig
 from .episodes import load_episodes
@@ -47,6 +51,7 @@ SKILL_TENSORS = (
     "gripper_node_times",
     "durations",
     "anchor_poses",
+    "anchor_initial_poses",
 )
 
 
@@ -211,6 +216,11 @@ class ForceMapPolicy(PreTrainedPolicy):
         """Start a new episode: the next observation re-anchors the skill."""
         self._step = 0
         self._placed: list[Reproduction] | None = None
+        self._next_segment = 1  # the next segment whose start may re-anchor it (segment 0: at reset)
+        # per object: its demonstrated pose (7,) at its last observation (reset, or a re-anchoring)
+        self._observed_as: dict[str, np.ndarray] = {}
+        self._provisional: list[bool] = []
+        self.reanchor_log: list[dict[str, Any]] = []  # (segment, batch row, shift) of each re-anchoring
 
     def place(self, batch: dict[str, Tensor]) -> list[Reproduction]:
         """The skill placed in each batch element's scene (robot pose + object poses of the observation)."""
@@ -230,6 +240,13 @@ class ForceMapPolicy(PreTrainedPolicy):
                     f"{len(cfg.env_state_names)} ({cfg.env_state_names})"
                 )
         slots = object_slots(cfg.env_state_names)
+        online = cfg.reanchor and cfg.reanchor_online
+        self._observed_as = skill.demo_object_poses()
+        self._provisional = (
+            provisional_segments(skill, self._observed_as, cfg.static_tolerance)
+            if online
+            else [False] * skill.n_segments
+        )
         placed = []
         for i in range(n):
             poses = object_poses(env[i], slots) if env is not None else skill.demo_object_poses()
@@ -239,6 +256,7 @@ class ForceMapPolicy(PreTrainedPolicy):
                     robot_pose=None if robot is None else robot[i, :7],
                     object_pose=poses,
                     params_for=cfg.segment_params,
+                    provisional=self._provisional,
                 )
             )
         return placed
@@ -251,7 +269,53 @@ class ForceMapPolicy(PreTrainedPolicy):
             raise ValueError(
                 f"batch size changed from {len(self._placed)} to {n} within an episode; call reset() between episodes"
             )
+        self._reanchor_started(batch, self._step / self.config.fps)
         return self._placed
+
+    def _reanchor_started(self, batch: dict[str, Tensor], t: float) -> None:
+        """Re-anchor every object-anchored segment that has started by time ``t`` and was not checked
+        yet, to its object's position in this observation (``reanchor_online``)."""
+        cfg, skill = self.config, self.skill
+        placed = self._placed
+        current = placed[0].segment_at(t)
+        if not (cfg.reanchor and cfg.reanchor_online) or self._next_segment > current:
+            return
+        started = [s for s in range(self._next_segment, current + 1) if skill.segments[s].anchor]
+        self._next_segment = current + 1
+        if not started:
+            return
+        env = _rows(batch, cfg.env_state_key, len(placed))
+        if env.shape[1] != len(cfg.env_state_names):
+            raise ValueError(
+                f"observation {cfg.env_state_key!r} has {env.shape[1]} entries, but the policy was fitted on "
+                f"{len(cfg.env_state_names)} ({cfg.env_state_names})"
+            )
+        slots = object_slots(cfg.env_state_names)
+        poses = [object_poses(env[i], slots) for i in range(len(placed))]
+        for s in started:
+            was_provisional = self._provisional[s]
+            obj = skill.segments[s].anchor
+            self._observed_as[obj] = np.asarray(skill.segments[s].anchor_pose, dtype=np.float64)
+            self._provisional = provisional_segments(
+                skill, self._observed_as, cfg.static_tolerance, started=s
+            )
+            for i in range(len(placed)):
+                position = poses[i][obj][:3]
+                shift = position - placed[i].segments[s].anchor_pose[:3]
+                if not was_provisional and float(np.linalg.norm(shift)) <= cfg.reanchor_tolerance:
+                    continue
+                placed[i] = reanchor_segment(
+                    placed[i],
+                    skill,
+                    s,
+                    position,
+                    params_for=cfg.segment_params,
+                    blend_s=cfg.reanchor_blend_s,
+                    provisional=self._provisional,
+                )
+                self.reanchor_log.append(
+                    {"segment": s, "row": i, "t": float(t), "shift": [float(v) for v in shift]}
+                )
 
     def _actions(self, placed: list[Reproduction], times: np.ndarray, like: Tensor) -> Tensor:
         out = np.stack([rep.actions_at(times) for rep in placed])  # (B, K, 8)

@@ -4,8 +4,8 @@ Pure NumPy. A :class:`FittedSkill` is a sequence of segments; segment s has an a
 (``nodes (N_s, 3)``, ``node_times (N_s,)`` in seconds from the segment start, ``orientations (N_s, 4)``
 w first) and a gripper map (``gripper_nodes (G_s, 1)``, ``gripper_node_times (G_s,)``), a duration,
 and an anchor: ``""`` (nodes in the robot base frame) or an object name (nodes in that object's
-frame). The arrays of all segments are stored concatenated (``segment_n_nodes`` splits them), which
-is also how the policy keeps them as buffers.
+frame at the segment's start). The arrays of all segments are stored concatenated (``segment_n_nodes``
+splits them), which is also how the policy keeps them as buffers.
 
 A :class:`Reproduction` is the skill placed in one scene (base frame, every segment's nodes final):
 ``actions_at(t)`` gives the ``[x y z qw qx qy qz gripper]`` targets at times t (s since reset).
@@ -30,9 +30,16 @@ Array = NDArray[np.float64]
 @dataclass(frozen=True)
 class SegmentMaps:
     """One segment: arm map nodes (N, 3), node_times (N,), orientations (N, 4); gripper map
-    gripper_nodes (G, 1), gripper_node_times (G,); duration (s); anchor ("" or an object name);
-    anchor_pose (7,): the anchor object's pose in the (first) demonstration (identity when free), so
-    the demonstration's scene can be rebuilt for plots and the replay ablation."""
+    gripper_nodes (G, 1), gripper_node_times (G,); duration (s); anchor ("" or an object name).
+
+    anchor_pose (7,): the anchor object's pose at the segment's first frame in the (first)
+    demonstration: the frame the nodes are stored in (identity when free). In a placed segment
+    (:class:`Reproduction`) it is the object's base-frame pose the placement assumed at the segment's
+    start, which the policy compares with the observed pose when the segment starts.
+    anchor_initial_pose (7,): the anchor object's pose at the demonstration's first frame (identity
+    when free). The two differ when the object moved before the segment (pushed, flipped); the pair
+    predicts at reset where the object will be when the segment starts, and rebuilds the
+    demonstration's scene for plots and the replay ablation."""
 
     nodes: Array
     node_times: Array
@@ -42,6 +49,7 @@ class SegmentMaps:
     duration: float
     anchor: str = ""
     anchor_pose: Array = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]))
+    anchor_initial_pose: Array = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]))
 
 
 @dataclass(frozen=True)
@@ -62,6 +70,7 @@ class FittedSkill:
                 "gripper_nodes": (seg.gripper_nodes.shape, (g, 1)),
                 "gripper_node_times": (seg.gripper_node_times.shape, (g,)),
                 "anchor_pose": (np.shape(seg.anchor_pose), (7,)),
+                "anchor_initial_pose": (np.shape(seg.anchor_initial_pose), (7,)),
             }
             for name, (got, want) in checks.items():
                 if got != want:
@@ -84,13 +93,18 @@ class FittedSkill:
         return tuple(s.anchor for s in self.segments)
 
     def demo_object_poses(self) -> dict[str, Array]:
-        """Anchor object poses of the (first) demonstration: ``{name: (7,)}``."""
-        return {s.anchor: np.asarray(s.anchor_pose, dtype=np.float64) for s in self.segments if s.anchor}
+        """Anchor object poses at the first frame of the (first) demonstration: ``{name: (7,)}``."""
+        out: dict[str, Array] = {}
+        for s in self.segments:
+            if s.anchor and s.anchor not in out:
+                out[s.anchor] = np.asarray(s.anchor_initial_pose, dtype=np.float64)
+        return out
 
     # ---- flat (buffer) form ----------------------------------------------------------------------------
     def flat_arrays(self) -> dict[str, Array]:
         """Concatenated arrays: nodes (ΣN, 3), node_times (ΣN,), orientations (ΣN, 4),
-        gripper_nodes (ΣG, 1), gripper_node_times (ΣG,), durations (S,), anchor_poses (S, 7)."""
+        gripper_nodes (ΣG, 1), gripper_node_times (ΣG,), durations (S,), anchor_poses (S, 7),
+        anchor_initial_poses (S, 7)."""
         cat = np.concatenate
         return {
             "nodes": cat([s.nodes for s in self.segments]),
@@ -100,6 +114,9 @@ class FittedSkill:
             "gripper_node_times": cat([s.gripper_node_times for s in self.segments]),
             "durations": self.durations,
             "anchor_poses": np.stack([np.asarray(s.anchor_pose, dtype=np.float64) for s in self.segments]),
+            "anchor_initial_poses": np.stack(
+                [np.asarray(s.anchor_initial_pose, dtype=np.float64) for s in self.segments]
+            ),
         }
 
     @classmethod
@@ -123,6 +140,7 @@ class FittedSkill:
         }
         durations = np.asarray(arrays["durations"], dtype=np.float64)
         anchor_poses = np.asarray(arrays["anchor_poses"], dtype=np.float64)
+        initial_poses = np.asarray(arrays["anchor_initial_poses"], dtype=np.float64)
         return cls(
             tuple(
                 SegmentMaps(
@@ -134,6 +152,7 @@ class FittedSkill:
                     duration=float(durations[s]),
                     anchor=str(anchors[s]),
                     anchor_pose=anchor_poses[s],
+                    anchor_initial_pose=initial_poses[s],
                 )
                 for s in range(len(segment_n_nodes))
             )
@@ -144,7 +163,8 @@ class FittedSkill:
 class Reproduction:
     """A skill placed in one scene: every segment in the base frame, run back to back in time.
 
-    segments: the placed segments (anchor fields are kept for diagnostics only);
+    segments: the placed segments (``anchor`` names the object, ``anchor_pose`` is the object's
+    base-frame pose the placement assumed at the segment's start: see ``anchoring.reanchor_segment``);
     start_times (S,) s since reset at which each segment starts; total duration = last end.
     """
 
@@ -183,6 +203,11 @@ class Reproduction:
             g = np.interp(local, m.gripper_node_times, m.gripper_nodes[:, 0])
             out[rows, layout.ACTION_GRIPPER] = np.clip(g, layout.GRIPPER_OPEN, layout.GRIPPER_CLOSED)
         return out
+
+    def segment_at(self, t: float) -> int:
+        """Index of the segment running at time ``t`` (s since reset; the last one after the end)."""
+        s = int(np.searchsorted(self.start_times, float(t), side="right")) - 1
+        return min(max(s, 0), len(self.segments) - 1)
 
     def path(self) -> Array:
         """All arm nodes (ΣN, 3) in the base frame, in order (for plots)."""

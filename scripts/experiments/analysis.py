@@ -213,30 +213,36 @@ def peg_section(doc, cells) -> list[str]:
     )
     ph_o, ph_h = ours.get("force_by_gripper_phase"), hyb.get("force_by_gripper_phase")
     if ph_o and ph_h:
-        share_o = 100 * ph_o["moving"]["peak_share_xyz"][0]
-        if ph_h["moving"]["episodes"]:
-            hyb_txt = (
-                f"hybrid: {100 * ph_h['moving']['peak_share_xyz'][0]:.0f}% of episodes, mean max |Fx| in that phase "
-                f"{ph_h['moving']['max_xyz_mean'][0]:.2f} N"
+        closed = (
+            f"while the gripper is closed (approach, bump, insertion) ours' mean max |Fx| is "
+            f"{ph_o['closed']['max_xyz_mean'][0]:.2f} N vs hybrid's {ph_h['closed']['max_xyz_mean'][0]:.2f} N"
+        )
+        if ph_o["moving"]["episodes"]:
+            out.append(
+                f"- X by gripper phase (per episode, 20 Hz samples split by the gripper command): {closed}; ours' largest "
+                f"|Fx| falls while the command is between closed and open (the release of the disc on the peg) in "
+                f"{100 * ph_o['moving']['peak_share_xyz'][0]:.0f}% of its episodes ({ph_o['moving']['episodes']} episodes "
+                f"have such steps; mean max |Fx| there {ph_o['moving']['max_xyz_mean'][0]:.2f} N)."
             )
         else:
-            hyb_txt = "hybrid control replays the demonstration's command, which steps from closed to open between two frames, so it has no such phase"
-        out.append(
-            f"- Where X is lost (per episode, 20 Hz samples split by the gripper command): ours' largest |Fx| falls while the "
-            f"gripper command is between closed and open — the release of the disc on the peg — in {share_o:.0f}% of its "
-            f"{ph_o['moving']['episodes']} episodes, with a mean max |Fx| of {ph_o['moving']['max_xyz_mean'][0]:.2f} N there ({hyb_txt}). "
-            f"While the gripper is closed (approach, bump, insertion) ours is below hybrid on X too: mean max |Fx| "
-            f"{ph_o['closed']['max_xyz_mean'][0]:.2f} N vs {ph_h['closed']['max_xyz_mean'][0]:.2f} N."
-        )
+            out.append(
+                f"- X by gripper phase (per episode, 20 Hz samples split by the gripper command): {closed}."
+            )
     tr = _trace(cells, "peg", "peg_in_hole", "ours")
     trh = _trace(cells, "peg", "peg_in_hole", "hybrid")
     if tr is not None and trh is not None:
+        op = _gripper_opening(*tr)
+        slow = op is not None and (op["end"] is None or op["end"] - op["start"] > 0.2)
+        why = (
+            "Slowly opening fingers drag the disc sideways against the peg: the gripper map's time law spreads the step."
+            if slow
+            else "The gripper map is fitted in space-time (closure and time, `gripper_time_scale`) with one node per "
+            "control period, so the demonstrated step command stays a step: the fingers let go of the disc at once "
+            "instead of dragging it sideways against the peg while they open slowly (what the 1-D gripper map did)."
+        )
         out.append(
-            f"- The release itself (trace of demonstration 0, first seed): the reproduced gripper command {_opening_text(_gripper_opening(*tr))}; "
-            f"the demonstration, replayed by hybrid control, {_opening_text(_gripper_opening(*trh))}. Slowly opening fingers "
-            "drag the disc sideways against the peg. The ramp comes from the 1-D gripper map's time law: a step command has no "
-            "samples between open and closed, so the nodes in between are empty and get times interpolated between the mean "
-            "times of the closed and the open clusters (a policy issue, reported)."
+            f"- The release (trace of demonstration 0, first seed): the reproduced gripper command {_opening_text(op)}; "
+            f"the demonstration, replayed by hybrid control, {_opening_text(_gripper_opening(*trh))}. {why}"
         )
     return out
 
@@ -255,31 +261,85 @@ def grasp_section(doc, cells) -> list[str]:
         + ", ".join(f"{r['task']}/{r['object']} {100 * r['success_rate']:.0f}%" for r in unseen)
         + "."
     )
-    book = next((r for r in seen if r["task"] == "grasp_push"), None)
-    if book and book["success_rate"] < 0.9:
-        tr = _trace(cells, "grasp", "grasp_push", "ours", book["object"])
-        op = _gripper_opening(*tr) if tr is not None else None
-        out.append(
-            f"- grasp_push/{book['object']}: failures {book.get('failures')}. The protective stops are the 60 N contact limit "
-            "reached while the hand descends onto the upright book with its fingers not yet open"
-            + (
-                f" (trace of demonstration 0: the reproduced gripper command {_opening_text(op)}; the demonstration steps it)"
-                if op
-                else ""
-            )
-            + " — the same gripper-map time law as in peg_in_hole. Which demonstrations fail is deterministic (both seeds of a "
-            "demonstration agree)."
+    replay = {
+        (r["task"], r["object"]): r
+        for r in doc["records"]
+        if r["experiment"] == "grasp" and r["method"] == "replay"
+    }
+    if unseen:
+        ref = ", ".join(
+            f"{r['task']}/{r['object']} {100 * replay[(r['task'], r['object'])]['success_rate']:.0f}%"
+            for r in unseen
+            if (r["task"], r["object"]) in replay
         )
-    if unseen and max(r["success_rate"] for r in unseen) < 0.9:
         out.append(
-            "- Unseen objects fail for ours and for the rigidly re-anchored replay alike: both see the object's pose only at "
-            "reset, and the demonstrated grasp happens where the *demonstration* object ended up after the push or flip "
-            "(the carton moves ~13 cm; the book stands up against the wall). An apple or banana is not moved the same way, so "
-            "the reproduced grasp closes on empty table or on the object's edge (not_lifted). Re-anchoring the grasp segments "
-            "to the object pose observed when those segments start (what `scripts/grasp_unseen_objects.py` does for its "
-            "phase-aware replay) is needed; the policy re-anchors only at reset (`reset` / `place_skill`)."
+            "- The demonstrated grasp happens where the push or flip left the *demonstration* object (the book stands "
+            "up against the wall, the carton falls onto its side). Ours re-anchors every object-anchored segment when it "
+            "starts to the object position observed in that step (`reanchor_online`): the reach, descent and grasp "
+            "follow the apple or banana wherever it is then, shifted by the difference of the object centres (the "
+            "segments stay in the robot's orientation: an unseen object's orientation says nothing about the grasp); the "
+            "junction with the segment just run fades out over `reanchor_blend_s` = 1 s. Segments that move an object "
+            "are anchored by where it goes (`anchor_by_moved_object`): the push to the wall, the lift to nothing (it "
+            "continues from the grasp). The open-loop replay, re-anchored at reset only, cannot follow"
+            + (f": {ref}." if ref else ".")
+        )
+    for r in rows:
+        if not r.get("failures"):
+            continue
+        txt = f"- {r['task']}/{r['object']}: {100 * r['success_rate']:.0f}% of {r['n']}, failures {r.get('failures')}"
+        stops = _stopped_episodes(cells, r["task"], "ours", r["object"])
+        if stops:
+            txt += " (protective stops: " + "; ".join(stops) + ")"
+        txt += "."
+        tr = _trace(cells, "grasp", r["task"], "ours", r["object"])
+        op = _gripper_opening(*tr) if tr is not None else None
+        if op is not None and (op["end"] is None or op["end"] - op["start"] > 0.2):
+            txt += f" Trace of demonstration 0: the reproduced gripper command {_opening_text(op)}."
+        out.append(txt)
+    dflt = [r for r in doc["records"] if r["experiment"] == "grasp" and r["method"] == "ours_default"]
+    if dflt:
+        out.append(
+            "- Package defaults on the demonstration objects: "
+            + ", ".join(
+                f"{r['task']}/{r['object']} {100 * r['success_rate']:.0f}% (failures {r.get('failures') or '–'})"
+                for r in dflt
+            )
+            + ". They anchor a segment only to an object at rest (within 5 mm) whose centre comes within 5 cm of the "
+            "hand's path, by the path alone: segment anchors of demonstration 0, "
+            + "; ".join(
+                f"{t}: defaults {_anchors_of_first_fit(cells, t, 'ours_default')}, ours {_anchors_of_first_fit(cells, t, 'ours')}"
+                for t in dict.fromkeys(r["task"] for r in dflt)
+            )
+            + " ('-' = free). A free push replays the demonstration's base-frame path, which stands the book up "
+            "only when the randomised wall is where it was in the demonstration."
         )
     return out
+
+
+def _stopped_episodes(cells, task: str, method: str, obj: str) -> list[str]:
+    """'demonstration d, seed s: contact N, fingertips [..] N' for the protective stops of a grasp cell."""
+    out = []
+    for c in cells:
+        if c.experiment == "grasp" and c.task == task and c.method == method and c.object == obj:
+            for r in c.records:
+                if r.get("protective_stop"):
+                    fingers = ", ".join(f"{f:.1f}" for f in r.get("max_finger_force", []))
+                    out.append(
+                        f"demonstration {r['demo']}, seed {r['seed']}: max fingertip forces {fingers} N "
+                        f"(limit 40 N), max contact force {r['max_contact_force']:.1f} N (limit 60 N)"
+                    )
+    return out
+
+
+def _anchors_of_first_fit(cells, task: str, method: str) -> str:
+    """The segment anchors of the first demonstration's fit of a grasp cell, e.g. '[obj, wall, -]'."""
+    for c in cells:
+        if c.experiment == "grasp" and c.task == task and c.method == method:
+            for res in c.results:
+                fit = res.get("fit") or {}
+                if fit.get("segments"):
+                    return "[" + ", ".join(sg.get("anchor") or "-" for sg in fit["segments"]) + "]"
+    return "(no fit)"
 
 
 def learned_section(doc) -> list[str]:

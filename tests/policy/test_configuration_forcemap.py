@@ -33,6 +33,10 @@ def test_registered_and_lerobot_defaults():
         ({"segment_overrides": {1: {"stifness": 2.0}}}, "segment_overrides"),
         ({"n_nodes": 2}, "n_nodes"),
         ({"time_scale": -1.0}, "time_scale"),
+        ({"gripper_time_scale": -1.0}, "gripper_time_scale"),
+        ({"gripper_nodes_per_second": 0.0}, "gripper_nodes_per_second"),
+        ({"reanchor_tolerance": -0.001}, "reanchor_tolerance"),
+        ({"reanchor_blend_s": 0.0}, "reanchor_blend_s"),
         (
             {
                 "n_segments": 2,
@@ -75,6 +79,11 @@ def test_json_round_trip_keeps_every_field(tmp_path):
         stiffness=2500.0,
         force_limit=40.0,
         segment_overrides={2: {"stiffness": 4000.0}},
+        gripper_time_scale=1.5,
+        gripper_nodes_per_second=12.0,
+        anchor_by_moved_object=True,
+        reanchor_online=False,
+        reanchor_blend_s=None,
         n_segments=2,
         segment_n_nodes=[5, 9],
         segment_n_gripper_nodes=[5, 9],

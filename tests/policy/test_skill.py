@@ -27,6 +27,7 @@ def test_flat_round_trip_is_exact():
             "gripper_nodes",
             "gripper_node_times",
             "anchor_pose",
+            "anchor_initial_pose",
         ):
             np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
         assert a.duration == b.duration and a.anchor == b.anchor
