@@ -33,6 +33,8 @@ import numpy as np
 
 __all__ = [
     "FORCE_KEYS",
+    "TRACE_COLUMNS",
+    "to_json",
     "load_policy",
     "rollout",
     "evaluate_policy",
@@ -43,17 +45,40 @@ __all__ = [
     "run",
 ]
 
+#: columns of a rollout trace row: time, contact force, measured TCP pose, commanded action
+TRACE_COLUMNS = (
+    "t",
+    "fx",
+    "fy",
+    "fz",
+    "x",
+    "y",
+    "z",
+    "qw",
+    "qx",
+    "qy",
+    "qz",
+    "target_x",
+    "target_y",
+    "target_z",
+    "target_qw",
+    "target_qx",
+    "target_qy",
+    "target_qz",
+    "gripper",
+)
 #: the per-episode force figures (env ``info`` keys) compared between demonstration and reproduction
 FORCE_KEYS = ("max_contact_force", "mean_contact_force", "max_contact_force_xyz", "mean_contact_force_xyz")
 
 
-def _json(v: Any) -> Any:
+def to_json(v: Any) -> Any:
+    """Plain JSON types (dicts, lists, bool, int, float) from NumPy values, recursively."""
     if isinstance(v, dict):
-        return {str(k): _json(x) for k, x in v.items()}
+        return {str(k): to_json(x) for k, x in v.items()}
     if isinstance(v, (list, tuple)):
-        return [_json(x) for x in v]
+        return [to_json(x) for x in v]
     if isinstance(v, np.ndarray):
-        return _json(v.tolist())
+        return to_json(v.tolist())
     if isinstance(v, (np.bool_, bool)):
         return bool(v)
     if isinstance(v, (np.integer, int)):
@@ -143,41 +168,21 @@ def rollout(
         "termination_reason": info.get("termination_reason") or ("time_limit" if truncated else ""),
         "steps": steps,
         "wall_s": time.perf_counter() - t0,
-        **{k: _json(info[k]) for k in FORCE_KEYS},
+        **{k: to_json(info[k]) for k in FORCE_KEYS},
     }
     # task metrics: scalars and short vectors (e.g. per-finger max/mean forces); the per-step contact
     # force and the clip reports are not episode figures
     skip = {"is_success", "protective_stop", "termination_reason", "contact_force", *FORCE_KEYS}
     record["metrics"] = {
-        k: _json(v)
+        k: to_json(v)
         for k, v in info.items()
         if k not in skip and not k.startswith("clip_") and np.ndim(v) <= 1 and np.size(v) <= 16
     }
     if trace:
         record["trace"] = {
-            "columns": [
-                "t",
-                "fx",
-                "fy",
-                "fz",
-                "x",
-                "y",
-                "z",
-                "qw",
-                "qx",
-                "qy",
-                "qz",
-                "target_x",
-                "target_y",
-                "target_z",
-                "target_qw",
-                "target_qx",
-                "target_qy",
-                "target_qz",
-                "gripper",
-            ],
-            "rows": _json(np.asarray(rows)),
-            "environment_state": _json(obs[layout.ENV_STATE]) if layout.ENV_STATE in obs else None,
+            "columns": list(TRACE_COLUMNS),
+            "rows": to_json(np.asarray(rows)),
+            "environment_state": to_json(obs[layout.ENV_STATE]) if layout.ENV_STATE in obs else None,
             "environment_state_names": list(base.state_names.get(layout.ENV_STATE, ())),
         }
     return record
@@ -342,8 +347,8 @@ def demonstration_records(dataset: str | Path, *, trace: bool = False) -> tuple[
                 env_state = table[layout.OBS_ENV_STATE][rows][0] if layout.OBS_ENV_STATE in table else None
                 records[int(e)]["trace"] = {
                     "columns": ["t", "fx", "fy", "fz", "x", "y", "z", "target_x", "target_y", "target_z"],
-                    "rows": _json(np.column_stack([t - t[0], f, ee, act])),
-                    "environment_state": _json(env_state) if env_state is not None else None,
+                    "rows": to_json(np.column_stack([t - t[0], f, ee, act])),
+                    "environment_state": to_json(env_state) if env_state is not None else None,
                     "environment_state_names": names,
                     "force_source": force_key,
                 }
@@ -393,7 +398,11 @@ def summarize(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     for k in FORCE_KEYS:
         v = np.array([r[k] for r in records if k in r], dtype=float)
         if len(v):
-            out[k] = {"mean": _json(v.mean(axis=0)), "std": _json(v.std(axis=0)), "max": _json(v.max(axis=0))}
+            out[k] = {
+                "mean": to_json(v.mean(axis=0)),
+                "std": to_json(v.std(axis=0)),
+                "max": to_json(v.max(axis=0)),
+            }
     return out
 
 
@@ -405,7 +414,7 @@ def compare(reproduction: dict[str, Any], demonstration: dict[str, Any]) -> dict
             r = np.asarray(reproduction[k]["mean"], dtype=float)
             d = np.asarray(demonstration[k]["mean"], dtype=float)
             with np.errstate(divide="ignore", invalid="ignore"):
-                out[k + "_change_pct"] = _json(np.where(d != 0, 100.0 * (r - d) / d, np.nan))
+                out[k + "_change_pct"] = to_json(np.where(d != 0, 100.0 * (r - d) / d, np.nan))
     return out
 
 
@@ -444,7 +453,7 @@ def evaluation_document(
             **compare(doc["summary"], ref),
             "vs_all_demonstrations": compare(doc["summary"], doc["demonstrations"]["summary_all"]),
         }
-    return _json(doc)
+    return to_json(doc)
 
 
 def _fitted_episodes(policy_path: str | Path) -> list[int]:

@@ -290,9 +290,9 @@ def force_inputs_text(extras: Sequence[str] = DEFAULT_EXTRAS) -> str:
 
 
 def _mean_std(values: np.ndarray) -> dict[str, Any]:
-    from lerobot_forcemap.experiments.evaluate import _json
+    from lerobot_forcemap.experiments.evaluate import to_json
 
-    return {"mean": _json(values.mean(axis=0)), "std": _json(values.std(axis=0))}
+    return {"mean": to_json(values.mean(axis=0)), "std": to_json(values.std(axis=0))}
 
 
 def result_document(
@@ -310,7 +310,7 @@ def result_document(
     """The ``results/learned/<task>__<method>.json`` document (schema in scripts/experiments/learned_baselines.py).
 
     Spreads are population std over episodes (``numpy.std``)."""
-    from lerobot_forcemap.experiments.evaluate import _json
+    from lerobot_forcemap.experiments.evaluate import to_json
 
     if not records:
         raise ValueError(f"result_document {task}/{method}: no episode records")
@@ -341,4 +341,4 @@ def result_document(
         "force_inputs": force_inputs,
         "episodes": list(records),
     }
-    return _json(doc)
+    return to_json(doc)

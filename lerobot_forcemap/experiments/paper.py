@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lerobot_forcemap import layout
+from lerobot_forcemap.experiments.evaluate import to_json
 
 __all__ = [
     "EVAL_SEEDS",
@@ -249,22 +250,6 @@ def reanchor_actions(demo: DemoEpisode, env_state_now: Array, anchor: str) -> Ar
 # ---- episodes ----------------------------------------------------------------------------------------------
 
 
-def _json(v: Any) -> Any:
-    if isinstance(v, dict):
-        return {str(k): _json(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_json(x) for x in v]
-    if isinstance(v, np.ndarray):
-        return _json(v.tolist())
-    if isinstance(v, (np.bool_, bool)):
-        return bool(v)
-    if isinstance(v, (np.integer, int)):
-        return int(v)
-    if isinstance(v, (np.floating, float)):
-        return float(v)
-    return v
-
-
 TRACE_COLUMNS = ("t", "fx", "fy", "fz", "x", "y", "z", "target_x", "target_y", "target_z", "gripper")
 
 
@@ -308,19 +293,19 @@ def run_episode(
     }
     for k in (*FORCE_KEYS, *FINGER_KEYS):
         if k in info:
-            record[k] = _json(info[k])
+            record[k] = to_json(info[k])
     record["force_by_gripper_phase"] = force_by_gripper_phase(np.asarray(forces), np.asarray(grips))
     skip = {"is_success", "protective_stop", "termination_reason", "contact_force", *FORCE_KEYS, *FINGER_KEYS}
     record["metrics"] = {
-        k: _json(v)
+        k: to_json(v)
         for k, v in info.items()
         if k not in skip and not k.startswith("clip_") and np.ndim(v) == 0
     }
     if trace:
         record["trace"] = {
             "columns": list(TRACE_COLUMNS),
-            "rows": _json(np.round(np.asarray(rows), 5)),
-            "environment_state": _json(obs[layout.ENV_STATE]) if layout.ENV_STATE in obs else None,
+            "rows": to_json(np.round(np.asarray(rows), 5)),
+            "environment_state": to_json(obs[layout.ENV_STATE]) if layout.ENV_STATE in obs else None,
             "environment_state_names": list(base.state_names.get(layout.ENV_STATE, ())),
         }
     return record
@@ -345,7 +330,7 @@ def force_by_gripper_phase(forces: Array, gripper: Array) -> dict[str, Any]:
         m = masks[name]
         out[name] = {
             "steps": int(m.sum()),
-            "max_xyz": _json(np.abs(forces[m]).max(axis=0)) if m.any() else [0.0, 0.0, 0.0],
+            "max_xyz": to_json(np.abs(forces[m]).max(axis=0)) if m.any() else [0.0, 0.0, 0.0],
         }
     return out
 
@@ -423,7 +408,7 @@ def fitted_checkpoint(job: Job, workdir: str | Path, *, force: bool = False) -> 
     fit = {
         "fit_s": result.fit_s,
         "n_segments": len(rows),
-        "segments": _json(rows),
+        "segments": to_json(rows),
         "n_force_limit_rows": int(sum(a.n_force_limit_rows for a in result.policy.fit_report.arm_fits)),
         "checkpoint": str(ckpt),
     }
@@ -659,7 +644,7 @@ def _stat(values: Array) -> dict[str, Any]:
     mean = v.mean(axis=0)
     std = v.std(axis=0, ddof=1) if n > 1 else np.zeros_like(mean)
     half = _t95(n - 1) * std / math.sqrt(n) if n > 1 else np.full_like(mean, np.nan)
-    return _json({"mean": mean, "std": std, "ci95": half, "min": v.min(axis=0), "max": v.max(axis=0)})
+    return to_json({"mean": mean, "std": std, "ci95": half, "min": v.min(axis=0), "max": v.max(axis=0)})
 
 
 def summarize_records(records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:

@@ -7,7 +7,7 @@ import json
 import numpy as np
 
 from lerobot_forcemap.cli import main
-from lerobot_forcemap.experiments.evaluate import summarize
+from lerobot_forcemap.experiments.evaluate import TRACE_COLUMNS, summarize
 from lerobot_forcemap.experiments.report import table_rows
 
 
@@ -44,27 +44,7 @@ def _record(seed, fmax, fmean, trace=True):
     }
     if trace:
         rec["trace"] = {
-            "columns": [
-                "t",
-                "fx",
-                "fy",
-                "fz",
-                "x",
-                "y",
-                "z",
-                "qw",
-                "qx",
-                "qy",
-                "qz",
-                "target_x",
-                "target_y",
-                "target_z",
-                "target_qw",
-                "target_qx",
-                "target_qy",
-                "target_qz",
-                "gripper",
-            ],
+            "columns": list(TRACE_COLUMNS),
             "rows": rows.tolist(),
             "environment_state": [0.5, 0.0, 0.02, 1, 0, 0, 0, 0],
             "environment_state_names": [
