@@ -123,6 +123,34 @@ def hybrid_kwargs(threshold: float, normal: str) -> dict[str, Any]:
     return out
 
 
+def _jobs(
+    task: str,
+    method: str,
+    kind: str,
+    seeds_by_demo: dict[int, tuple[int, ...]],
+    *,
+    overrides: tuple[str, ...],
+    hybrid: dict[str, Any] | None,
+    env_kwargs: dict[str, Any] | None,
+    trace_demo: int | None,
+) -> list[Job]:
+    """One job per demonstration, running it on its seeds."""
+    return [
+        Job(
+            task,
+            method,
+            kind,
+            d,
+            s,
+            overrides=tuple(overrides),
+            hybrid=tuple(sorted((hybrid or {}).items())),
+            env_kwargs=tuple(sorted((env_kwargs or {}).items())),
+            trace_first=trace_demo is not None and d == trace_demo,
+        )
+        for d, s in seeds_by_demo.items()
+    ]
+
+
 def full_jobs(
     task: str,
     method: str,
@@ -136,20 +164,16 @@ def full_jobs(
     trace_demo: int | None = None,
 ) -> list[Job]:
     """Every demonstration on every seed (one job per demonstration)."""
-    return [
-        Job(
-            task,
-            method,
-            kind,
-            d,
-            tuple(seeds),
-            overrides=tuple(overrides),
-            hybrid=tuple(sorted((hybrid or {}).items())),
-            env_kwargs=tuple(sorted((env_kwargs or {}).items())),
-            trace_first=trace_demo is not None and d == trace_demo,
-        )
-        for d in demos
-    ]
+    return _jobs(
+        task,
+        method,
+        kind,
+        {d: tuple(seeds) for d in demos},
+        overrides=overrides,
+        hybrid=hybrid,
+        env_kwargs=env_kwargs,
+        trace_demo=trace_demo,
+    )
 
 
 def split_jobs(
@@ -165,20 +189,16 @@ def split_jobs(
     trace_demo: int | None = None,
 ) -> list[Job]:
     """The seeds dealt round-robin over the demonstrations (n = len(seeds))."""
-    return [
-        Job(
-            task,
-            method,
-            kind,
-            d,
-            s,
-            overrides=tuple(overrides),
-            hybrid=tuple(sorted((hybrid or {}).items())),
-            env_kwargs=tuple(sorted((env_kwargs or {}).items())),
-            trace_first=trace_demo is not None and d == trace_demo,
-        )
-        for d, s in split_seeds(seeds, demos).items()
-    ]
+    return _jobs(
+        task,
+        method,
+        kind,
+        split_seeds(seeds, demos),
+        overrides=overrides,
+        hybrid=hybrid,
+        env_kwargs=env_kwargs,
+        trace_demo=trace_demo,
+    )
 
 
 def fmt_overrides(overrides: tuple[str, ...] | list[str]) -> str:

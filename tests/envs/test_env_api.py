@@ -10,6 +10,7 @@ from lerobot_forcemap.envs.registration import TASKS
 from lerobot_forcemap.layout import ACTION_DIM, ENV_PIXELS
 
 from .conftest import TASK_NAMES
+from .helpers import assert_seed_determinism
 
 
 def test_gym_ids_registered_with_task_lengths():
@@ -36,23 +37,7 @@ def test_check_env(task):
 @pytest.mark.parametrize("task", TASK_NAMES)
 def test_same_seed_same_observations(task):
     env = E.make(task)
-    runs = []
-    for _ in range(2):
-        obs, _ = env.reset(seed=7)
-        traj = [obs]
-        rng = np.random.default_rng(0)
-        for _ in range(10):
-            a = np.concatenate(
-                [obs["ee_pose"][:3] + rng.uniform(-0.01, 0.01, 3), obs["ee_pose"][3:], [rng.uniform()]]
-            )
-            obs, *_ = env.step(a)
-            traj.append(obs)
-        runs.append(traj)
-    for o1, o2 in zip(*runs, strict=True):
-        for k in o1:
-            np.testing.assert_array_equal(o1[k], o2[k])
-    other, _ = env.reset(seed=8)
-    assert not np.array_equal(other["environment_state"], runs[0][0]["environment_state"])
+    assert_seed_determinism(env, seed=7)
 
 
 def test_observation_layout_matches_state_names():

@@ -11,6 +11,8 @@ from lerobot_forcemap.envs.tasks.grasp_push import GAP_RANGE, WALL_NOMINAL_X, Gr
 from lerobot_forcemap.envs.tasks.grasping import GRASP_OBJECTS
 from lerobot_forcemap.layout import finger_force_names
 
+from .helpers import assert_seed_determinism
+
 GRASP_TASKS = ("grasp_push", "grasp_flip")
 FINGER_BODIES = {
     "thumb": ("thumb_proximal", "thumb_distal"),
@@ -34,23 +36,7 @@ def test_check_env(task):
 @pytest.mark.parametrize(("task", "obj"), [("grasp_push", "book"), ("grasp_flip", "apple")])
 def test_same_seed_same_observations(task, obj):
     env = E.make(task, object=obj)
-    runs = []
-    for _ in range(2):
-        obs, _ = env.reset(seed=11)
-        traj = [obs]
-        rng = np.random.default_rng(0)
-        for _ in range(10):
-            a = np.concatenate(
-                [obs["ee_pose"][:3] + rng.uniform(-0.01, 0.01, 3), obs["ee_pose"][3:], [rng.uniform()]]
-            )
-            obs, *_ = env.step(a)
-            traj.append(obs)
-        runs.append(traj)
-    for o1, o2 in zip(*runs, strict=True):
-        for k in o1:
-            np.testing.assert_array_equal(o1[k], o2[k])
-    other, _ = env.reset(seed=12)
-    assert not np.array_equal(other["environment_state"], runs[0][0]["environment_state"])
+    assert_seed_determinism(env, seed=11)
     env.close()
 
 
