@@ -25,6 +25,7 @@ from .solve import (
     solve_m_step_clarabel,
 )
 from .weights import (
+    ForceNodeSums,
     ForcePoints,
     ForceWeights,
     cluster_sums,
@@ -47,6 +48,7 @@ __all__ = [
     "BandedMStep",
     "solve_m_step_banded",
     "solve_m_step_clarabel",
+    "ForceNodeSums",
     "ForcePoints",
     "ForceWeights",
     "cluster_sums",

@@ -39,12 +39,13 @@ from ..geometry import slerp_sequence
 from .constraints import Constraints, ResolvedConstraints, resolve_constraints
 from .solve import BandedMStep, EnergyTerms, InequalityRows, energy_terms, solve_m_step_clarabel
 from .timing import node_orientations, node_time_law
-from .weights import ForcePoints, cluster_sums, force_point_weights, make_force_points, row_norms
+from .weights import ForceNodeSums, ForcePoints, cluster_sums, make_force_points, row_norms
 
 __all__ = [
     "ElasticMapFit",
     "fit_force_elastic_map",
     "assign_nearest",
+    "arc_length",
     "arc_length_resample",
     "DEFAULT_LAMBDA",
     "DEFAULT_MU",
@@ -128,64 +129,169 @@ def assign_nearest(points: Array, nodes: Array, *, augmented: Array | None = Non
     return np.argmin(augmented @ rhs, axis=1)
 
 
-class NearestNodeAssigner:
-    """The E-step across EM iterations, with Hamerly's bounds (as in fast exact k-means).
+def point_node_distances(
+    point_columns: Array, node_columns: Array, which: NDArray[np.intp], idx: NDArray[np.intp] | None = None
+) -> Array:
+    """Distances from points to given nodes, axis-major: point_columns (d, M), node_columns (d, N).
 
-    Each sample keeps an upper bound on the distance to its node and a lower bound on the distance
-    to every other node. When nodes move by ``m_i`` the bounds loosen by ``m_a(j)`` and ``max_i m_i``;
-    only samples whose bounds cross are re-examined, and only those that still cross get a full row
-    of distances. The result equals :func:`assign_nearest` (up to exact ties): late EM iterations,
-    where nodes move by nanometres, cost a few vector operations instead of an (M, N) product.
+    ``which`` holds a node per point, (M,) — or per selected point ``idx (m,)``, (m,) or (k, m) for
+    k candidate nodes each. One gather per axis on contiguous rows: with d small this beats
+    ``np.linalg.norm(points - nodes[which], axis=1)`` on (M, d) arrays severalfold.
+    """
+    acc = None
+    for q in range(len(node_columns)):
+        dq = np.take(node_columns[q], which)
+        dq -= point_columns[q] if idx is None else point_columns[q, idx]
+        dq *= dq
+        acc = dq if acc is None else acc + dq
+    return np.sqrt(acc, out=acc)
+
+
+class NearestNodeAssigner:
+    """The E-step across EM iterations: exact nearest nodes, with bounds that skip most of the work.
+
+    Each sample is scored against a window: the ``window_size`` nodes nearest to a centre node (its
+    nearest node when its distances were last computed in full; the neighbourhoods are taken from
+    the nodes of the first call, so on a straight stretch of the map they are the centre and its
+    neighbours along it, and where the path folds back on itself they take in the other leg too).
+    Three bounds, in the spirit of Hamerly's and Elkan's exact k-means:
+
+    - ``upper``: the distance to its node, plus how far that node moved since;
+    - ``lower_in``: the distance to the nearest *other* window node, minus the largest move in the
+      window since. EM moves a few nodes at a time (after the first iterations most nodes barely
+      move while a handful move by a fraction of a millimetre), so this bound stays tight where
+      nothing moves;
+    - ``lower_out``: the distance to the nearest node outside the window, minus the largest move of
+      any node since; outside nodes lie farther than the window's, so it lasts many iterations.
+
+    A sample keeps its node while ``upper < min(lower_in, lower_out)``. Otherwise its window
+    distances are computed and decide when the window's nearest node beats ``lower_out``; when
+    even that fails, the triangle inequality gives a fresh ``lower_out`` from the nodes' own
+    distances, and only what is still undecided gets a full row of distances. The result equals
+    :func:`assign_nearest` up to exact ties.
     """
 
-    def __init__(self, points: Array) -> None:
+    def __init__(self, points: Array, *, window_size: int = 7, scale: float | None = None) -> None:
+        """points (M, d); window_size: nodes per window (centre included); scale: the data's extent
+        (sets the slack against rounding)."""
         self.points = points
+        self.columns = np.ascontiguousarray(points.T)  # (d, M): per-axis gathers are contiguous
         self.augmented = np.hstack([points, np.ones((len(points), 1))])
         self.sq = np.einsum("ij,ij->i", points, points)
+        self.window_size = window_size
         self.labels: NDArray[np.intp] | None = None
         self.nodes: Array | None = None
+        if scale is None:
+            scale = float(np.max(np.ptp(self.columns, axis=1)))
         # slack against rounding in the bounds: a sample is re-examined unless clearly decided
-        self.slack = 1e-9 * max(float(np.max(np.ptp(points, axis=0))), 1e-12)
+        self.slack = 1e-9 * max(scale, 1e-12)
 
-    def _full(self, idx: NDArray[np.intp] | slice, nodes: Array) -> tuple[NDArray[np.intp], Array, Array]:
+    def _start(self, nodes: Array) -> None:
+        m, n = len(self.points), nodes.shape[0]
+        self.labels = np.empty(m, dtype=np.intp)
+        self.center = np.empty(m, dtype=np.intp)
+        self.upper, self.lower_in, self.lower_out = np.empty(m), np.empty(m), np.empty(m)
+        # windows (k, N): column c holds c itself (row 0) and the k − 1 nodes nearest to it
+        k = min(self.window_size, n)
+        c = nodes - nodes.mean(axis=0)  # centred: the expansion loses nothing to a far origin
+        sq = np.einsum("ij,ij->i", c, c)
+        d2 = sq[:, None] + sq[None, :] - 2.0 * (c @ c.T)
+        np.fill_diagonal(d2, np.inf)
+        others = np.argpartition(d2, k - 2, axis=1)[:, : k - 1] if k > 1 else np.empty((n, 0), np.intp)
+        self.windows = np.ascontiguousarray(np.column_stack([np.arange(n), others]).T)
+
+    def _full(self, idx: NDArray[np.intp] | slice, nodes: Array) -> None:
+        """Exact nodes and fresh bounds for the samples ``idx`` from all (M', N) distances."""
         rhs = np.empty((nodes.shape[1] + 1, nodes.shape[0]))
         np.multiply(nodes.T, -2.0, out=rhs[:-1])
         rhs[-1] = np.einsum("ij,ij->i", nodes, nodes)
-        d2 = self.augmented[idx] @ rhs
-        rows = np.arange(d2.shape[0])
+        d2 = self.augmented[idx] @ rhs  # squared distances minus ‖x‖²
+        rows = np.arange(d2.shape[0])[:, None]
         first = np.argmin(d2, axis=1)
-        best = d2[rows, first].copy()
-        d2[rows, first] = np.inf
-        second = np.min(d2, axis=1) if nodes.shape[0] > 1 else np.full(len(rows), np.inf)
+        best = d2[rows[:, 0], first]
+        win = self.windows[:, first].T
+        near = np.where(win == first[:, None], np.inf, d2[rows, win])
+        d2[rows, win] = np.inf
+        outside = np.min(d2, axis=1)  # inf where the window holds every node
         sq = self.sq[idx]
-        return first, np.sqrt(np.maximum(best + sq, 0.0)), np.sqrt(np.maximum(second + sq, 0.0))
+        self.labels[idx] = first
+        self.center[idx] = first
+        self.upper[idx] = np.sqrt(np.maximum(best + sq, 0.0))
+        self.lower_in[idx] = np.sqrt(np.maximum(np.min(near, axis=1) + sq, 0.0))
+        self.lower_out[idx] = np.sqrt(np.maximum(outside + sq, 0.0))
 
     def __call__(self, nodes: Array) -> NDArray[np.intp]:
         if self.labels is None or self.nodes is None or self.nodes.shape != nodes.shape:
-            self.labels, self.upper, self.lower = self._full(slice(None), nodes)
+            self._start(nodes)
+            self._full(slice(None), nodes)
         else:
             move = row_norms(nodes - self.nodes)
+            self.labels = self.labels.copy()  # callers keep the previous assignment
             self.upper += move[self.labels]
-            self.lower -= move.max()
-            idx = np.flatnonzero(self.upper + self.slack >= self.lower)
+            self.lower_in -= np.max(move[self.windows], axis=0)[self.center]
+            self.lower_out -= move.max()
+            lower = np.minimum(self.lower_in, self.lower_out)
+            idx = np.flatnonzero(self.upper + self.slack >= lower)
             if len(idx):
-                self.upper[idx] = row_norms(self.points[idx] - nodes[self.labels[idx]])
-                idx = idx[self.upper[idx] + self.slack >= self.lower[idx]]
+                node_columns = np.ascontiguousarray(nodes.T)
+                self.upper[idx] = point_node_distances(self.columns, node_columns, self.labels[idx], idx)
+                idx = idx[self.upper[idx] + self.slack >= lower[idx]]
                 if len(idx):
-                    lab, up, lo = self._full(idx, nodes)
-                    self.labels = self.labels.copy()
-                    self.labels[idx], self.upper[idx], self.lower[idx] = lab, up, lo
+                    self._decide_in_window(idx, nodes, node_columns)
         self.nodes = nodes.copy()
         return self.labels
 
+    def _decide_in_window(self, idx: NDArray[np.intp], nodes: Array, node_columns: Array) -> None:
+        """Samples whose bounds cross: the window decides when its nearest node beats ``lower_out``."""
+        center = self.center[idx]
+        # (k, m) layout: reductions over the k window nodes run along contiguous rows
+        win = self.windows[:, center]
+        near = point_node_distances(self.columns, node_columns, win, idx)
+        cols = np.arange(len(idx))
+        j = np.argmin(near, axis=0)
+        best = near[j, cols]
+        undecided = best + self.slack >= self.lower_out[idx]
+        if undecided.any():
+            # triangle inequality: ‖x − y_i‖ >= ‖y_i − y_c‖ − ‖x − y_c‖ for every node i outside c's window
+            u = idx[undecided]
+            centers, which = np.unique(center[undecided], return_inverse=True)
+            gap = nodes[None, :, :] - nodes[centers][:, None, :]
+            gap = np.sqrt(np.einsum("cnd,cnd->cn", gap, gap))
+            gap[np.arange(len(centers)), self.windows[:, centers]] = np.inf
+            reach = np.min(gap, axis=1)  # distance from each centre to the nearest node outside its window
+            c_dist = near[0, cols[undecided]]  # row 0 of a window is its centre
+            fresh = reach[which] - c_dist
+            self.lower_out[u] = np.maximum(self.lower_out[u], fresh)
+            undecided[undecided] = best[undecided] + self.slack >= self.lower_out[u]
+        label = win[j, cols]
+        near[win == label] = np.inf
+        decided = ~undecided
+        ok = idx[decided]
+        self.labels[ok] = label[decided]
+        self.upper[ok] = best[decided]
+        self.lower_in[ok] = np.min(near, axis=0)[decided]
+        if undecided.any():
+            self._full(idx[undecided], nodes)
 
-def arc_length_resample(path: Array, n: int) -> Array:
-    """``n`` points equally spaced in arc length along ``path (T, d)``; by index when it has no length."""
-    seg = np.linalg.norm(np.diff(path, axis=0), axis=1)
-    s = np.concatenate([[0.0], np.cumsum(seg)])
-    if s[-1] <= 0:
-        s = np.arange(len(path), dtype=float)
-    keep = np.concatenate([[True], np.diff(s) > 0])
+
+def arc_length(path: Array) -> Array:
+    """Cumulative arc length (T,) along ``path (T, d)``, starting at 0; the sample index when it has no length."""
+    s = np.empty(len(path))
+    s[0] = 0.0
+    np.cumsum(row_norms(path[1:] - path[:-1]), out=s[1:])
+    return s if s[-1] > 0 else np.arange(len(path), dtype=float)
+
+
+def arc_length_resample(path: Array, n: int, s: Array | None = None) -> Array:
+    """``n`` points equally spaced in arc length along ``path (T, d)``; by index when it has no length.
+
+    ``s``: :func:`arc_length` of ``path`` when the caller has it.
+    """
+    if s is None:
+        s = arc_length(path)
+    keep = np.empty(len(s), dtype=bool)
+    keep[0] = True
+    np.greater(s[1:], s[:-1], out=keep[1:])  # interp needs strictly increasing abscissae
     s, p = s[keep], path[keep]
     target = np.linspace(0.0, s[-1], n)
     return np.stack([np.interp(target, s, p[:, q]) for q in range(path.shape[1])], axis=1)
@@ -370,15 +476,15 @@ def fit_force_elastic_map(
         if times is not None
         else float(np.mean(lengths) - 1)
     )
-    S = float(np.sum(np.linalg.norm(w, axis=1)))
-    scale = max(float(np.max(np.ptp(x, axis=0))), 1e-12)
+    S = len(x) * float(np.sqrt(dim)) if weights is None else float(np.sum(row_norms(w)))
+    # (d, M) copy: reductions along contiguous rows are many times faster than along axis 0 of (M, d)
+    scale = max(float(np.max(np.ptp(np.ascontiguousarray(x.T), axis=1))), 1e-12)
 
     # ---- initial map and constraints
     first = demos[0]
-    y = arc_length_resample(first, n_nodes)
-    seg = np.linalg.norm(np.diff(first, axis=0), axis=1)
-    arc = np.concatenate([[0.0], np.cumsum(seg)])
-    arc = arc / arc[-1] if arc[-1] > 0 else np.linspace(0.0, 1.0, len(first))
+    arc = arc_length(first)
+    y = arc_length_resample(first, n_nodes, arc)
+    arc = arc / arc[-1]
 
     def time_fraction_to_node(frac: float) -> int:
         j = min(int(np.searchsorted(norm_times[0], frac, side="left")), len(first) - 1)
@@ -412,7 +518,7 @@ def fit_force_elastic_map(
         )
 
     # ---- EM
-    labels_hist: list[NDArray[np.intp]] = []
+    labels_prev: NDArray[np.intp] | None = None
     hashes: list[int] = []
     history: list[float] = []
     spring = None
@@ -420,27 +526,33 @@ def fit_force_elastic_map(
     reason = "max_iter"
     capped = np.zeros((n_nodes, dim), dtype=bool)
     n_rows = 0
-    energy = energy_terms(y, np.zeros_like(y), np.zeros_like(y), S, lam, mu)
+    energy = EnergyTerms(0.0, 0.0, 0.0)  # replaced by the first M-step
     it = 0
-    assigner = NearestNodeAssigner(x)
-    unit_weights = weights is None
+    assigner = NearestNodeAssigner(x, scale=scale)
     banded = None if use_clarabel else BandedMStep(n_nodes, dim, lam, mu, rc.fixed_index, rc.fixed_value)
+    unit_weights = weights is None
+    force_sums = None if fp is None else ForceNodeSums(fp, n_nodes, stiffness, rho_max)
+    fp_columns = None if fp is None else np.ascontiguousarray(fp.points.T)
     for it in range(1, max_iter + 1):  # noqa: B007 (it is reported after the loop)
         labels = assigner(y)
-        if not labels_hist or not np.array_equal(labels, labels_hist[-1]):
+        same = labels_prev is not None and np.array_equal(labels, labels_prev)  # cheap: M ints
+        if same and fp is None:
+            # Same assignment, nothing else that moves: the M-step would return these nodes again.
+            reason = "converged"
+            break
+        if not same:
             W_demo, b_demo = cluster_sums(labels, None if unit_weights else w, x, n_nodes)
         W, b = W_demo, b_demo
         if fp is not None:
             tied = labels[fp.source]
-            target = np.maximum(row_norms(fp.points - y[tied]), delta)
-            new_spring = target if spring is None else (1.0 - omega) * spring + omega * target
-            spring_moved = 0.0 if spring is None else float(np.max(np.abs(new_spring - spring)))
-            spring = new_spring
-            fw = force_point_weights(
-                fp, tied, y, W_demo, delta=delta, stiffness=stiffness, rho_max=rho_max, spring_length=spring
-            )
-            capped = fw.capped
-            Wf, bf = cluster_sums(tied, fw.weights, fp.points, n_nodes)
+            target = np.maximum(point_node_distances(fp_columns, np.ascontiguousarray(y.T), tied), delta)
+            if spring is None:
+                spring = target
+            else:
+                new_spring = spring + omega * (target - spring)
+                spring_moved = float(np.max(np.abs(new_spring - spring)))
+                spring = new_spring
+            Wf, bf, capped = force_sums(tied, spring, W_demo)
             W = W + Wf
             b = b + bf
         extra = None
@@ -455,7 +567,6 @@ def fit_force_elastic_map(
         history.append(energy.total)
         moved = float(np.max(np.abs(y_new - y)))
         y = y_new
-        same = len(labels_hist) >= 1 and np.array_equal(labels, labels_hist[-1])  # cheap: M ints
         if same and max(moved, spring_moved) <= xtol * scale:
             reason = "converged"
             break
@@ -476,7 +587,7 @@ def fit_force_elastic_map(
         ):
             reason = "cycle"
             break
-        labels_hist = [*labels_hist[-1:], labels]
+        labels_prev = labels
 
     labels = assigner(y)  # the assignment to the returned nodes (bounds make this cheap)
     node_t = node_time_law(labels, u, n_nodes, duration)

@@ -92,10 +92,11 @@ def smoothness_bands(n_nodes: int, lam: float, mu: float) -> tuple[Array, Array,
 
 def energy_terms(y: Array, W: Array, b: Array, S: float, lam: float, mu: float) -> EnergyTerms:
     """Energy of nodes ``y (N, d)`` for cluster sums ``W, b (N, d)`` and normaliser ``S``."""
-    approx = float(np.sum((W * y - b) ** 2) / S)
-    stretch = float(lam * np.sum(np.diff(y, axis=0) ** 2)) if lam else 0.0
-    bend = float(mu * np.sum(np.diff(y, n=2, axis=0) ** 2)) if mu else 0.0
-    return EnergyTerms(approx, stretch, bend)
+    r = (W * y - b).ravel()
+    dy = y[1:] - y[:-1]
+    ddy = (dy[1:] - dy[:-1]).ravel()
+    dy = dy.ravel()
+    return EnergyTerms(float(r @ r) / S, float(lam * (dy @ dy)), float(mu * (ddy @ ddy)))
 
 
 def _banded_matvec(d0: Array, d1: Array, d2: Array, y: Array) -> Array:
@@ -140,8 +141,10 @@ class BandedMStep:
             y_fixed[fixed_index] = fixed_value
             self.y_fixed = y_fixed
         F = np.flatnonzero(self.free)
-        self.F = F
         nf = len(F)
+        self.nf = nf
+        # a slice when every node is free: W[F] is then a view, not a gather
+        self.F = F if nf < n else slice(None)
         sub1 = np.zeros(max(nf - 1, 0))
         if nf >= 2:
             gap1 = np.diff(F)
@@ -178,7 +181,7 @@ class BandedMStep:
         y = np.zeros((n, d)) if previous is None else np.array(previous, dtype=float, copy=True)
         if self.y_fixed is not None:
             y[self.fixed_index] = self.fixed_value
-        nf = len(F)
+        nf = self.nf
         if nf == 0:
             return y
         Wf = W[F]

@@ -28,6 +28,7 @@ __all__ = [
     "ForceWeights",
     "make_force_points",
     "force_point_weights",
+    "ForceNodeSums",
     "cluster_sums",
     "row_norms",
     "project_on_contact_normal",
@@ -72,7 +73,7 @@ class ForceWeights:
 def make_force_points(x: Array, f: Array, delta: float, f_contact: float) -> ForcePoints:
     """Force points for samples ``x, f (M, d)`` with ``‖f‖ > f_contact``; none when ``delta == 0``."""
     d = x.shape[1]
-    norm = np.linalg.norm(f, axis=1)
+    norm = row_norms(f)
     if delta == 0.0:
         sel = np.zeros(len(x), dtype=bool)
     else:
@@ -99,16 +100,33 @@ def cluster_sums(
     d = values.shape[1]
     W = np.empty((n_nodes, d))
     b = np.empty((n_nodes, d))
+    # bincount wants contiguous weights: one (d, M) copy beats d strided column reads
     if w is None:
         W[:] = np.bincount(labels, minlength=n_nodes)[:, None]
-        for q in range(d):
-            b[:, q] = np.bincount(labels, weights=values[:, q], minlength=n_nodes)
+        columns = np.ascontiguousarray(values.T)
     else:
-        wv = w * values
-        for q in range(d):
-            W[:, q] = np.bincount(labels, weights=w[:, q], minlength=n_nodes)
-            b[:, q] = np.bincount(labels, weights=wv[:, q], minlength=n_nodes)
+        W[:] = np.stack(
+            [np.bincount(labels, weights=c, minlength=n_nodes) for c in np.ascontiguousarray(w.T)], 1
+        )
+        columns = np.ascontiguousarray((w * values).T)
+    for q in range(d):
+        b[:, q] = np.bincount(labels, weights=columns[q], minlength=n_nodes)
     return W, b
+
+
+def _cap(
+    push: Array, demo_weight_sum: Array, rho_max: float | None
+) -> tuple[Array, NDArray[np.bool_], Array]:
+    """The rho_max cap per node and axis: (scale (N, d) for the force weights, capped mask, ratio r).
+
+    A force point's source sample sits in its node's cluster, so a node with a push has demo weight
+    > 0; the floor on the denominator only keeps 0/0 at 0.
+    """
+    ratio = push / np.maximum(demo_weight_sum, 1e-300)
+    if rho_max is None:
+        return np.ones_like(ratio), np.zeros(ratio.shape, dtype=bool), ratio
+    # rho/max(r, rho) is exactly 1 where r <= rho and rho/r where the cap binds
+    return rho_max / np.maximum(ratio, rho_max), ratio > rho_max, ratio
 
 
 def force_point_weights(
@@ -135,14 +153,40 @@ def force_point_weights(
         spring = np.maximum(spring_length, delta)
     w = -fp.magnitude / (stiffness * spring[:, None])
     push = np.stack([np.bincount(tied_node, weights=-w[:, q], minlength=n) for q in range(d)], axis=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(push > 0, push / demo_weight_sum, 0.0)
-    ratio = np.where(np.isfinite(ratio), ratio, np.inf)
-    if rho_max is None:
-        return ForceWeights(w, np.zeros((n, d), dtype=bool), ratio)
-    capped = ratio > rho_max
-    scale = np.where(capped, rho_max / np.where(capped, ratio, 1.0), 1.0)
+    scale, capped, ratio = _cap(push, demo_weight_sum, rho_max)
     return ForceWeights(w * scale[tied_node], capped, ratio)
+
+
+class ForceNodeSums:
+    """The force points' cluster sums straight from the spring lengths, for the EM loop.
+
+    Equal to ``cluster_sums(tied, force_point_weights(...).weights, fp.points, N)`` (tested), but the
+    per-point weights are never formed: every point's weight on axis q is ``−|f_q|/(k·Δ)`` and the
+    cap scales whole node axes, so ``W_f = −scale ⊙ Σ |f|/(kΔ)`` and ``b_f = −scale ⊙ Σ |f| p/(kΔ)``
+    come from one ``bincount`` over the (K, 2d) products ``[|f|, |f|⊙p] / (kΔ)``. Its index is
+    rebuilt only when the assignment of the force points changes.
+    """
+
+    def __init__(self, fp: ForcePoints, n_nodes: int, stiffness: float, rho_max: float | None) -> None:
+        self.n, self.d = n_nodes, fp.points.shape[1]
+        self.stiffness, self.rho_max = stiffness, rho_max
+        self.moments = np.hstack([fp.magnitude, fp.magnitude * fp.points])  # (K, 2d)
+        self._tied: NDArray[np.intp] | None = None
+        self._flat: NDArray[np.intp] | None = None
+
+    def __call__(
+        self, tied_node: NDArray[np.intp], spring_length: Array, demo_weight_sum: Array
+    ) -> tuple[Array, Array, NDArray[np.bool_]]:
+        """W_f, b_f (N, d) and the capped mask (N, d) for tied_node (K,) and spring lengths Δ (K,) >= δ."""
+        n, d = self.n, self.d
+        if self._tied is None or not np.array_equal(tied_node, self._tied):
+            self._tied = tied_node
+            self._flat = (tied_node[:, None] * (2 * d) + np.arange(2 * d)).ravel()
+        inv = 1.0 / (self.stiffness * spring_length)
+        sums = np.bincount(self._flat, weights=(self.moments * inv[:, None]).ravel(), minlength=n * 2 * d)
+        sums = sums.reshape(n, 2 * d)
+        scale, capped, _ = _cap(sums[:, :d], demo_weight_sum, self.rho_max)
+        return -scale * sums[:, :d], -scale * sums[:, d:], capped
 
 
 def project_on_contact_normal(forces: Array, normal: Array) -> Array:

@@ -107,6 +107,33 @@ def test_bounded_assigner_matches_brute_force():
         y = y + rng.normal(scale=0.1 / (k + 1) ** 2, size=y.shape)
 
 
+@pytest.mark.parametrize("path", ["s_curve", "fold"])
+def test_bounded_assigner_stays_exact_when_a_few_nodes_move(path):
+    """EM moves a few nodes at a time (the case the window bounds are for). The fold goes down and back
+    up the same line, as a press does, so nodes outside a sample's window lie right next to it and
+    the triangle bound and full rows have to step in."""
+    rng = np.random.default_rng(5)
+    if path == "s_curve":
+        x = s_curve(n=1500, seed=5)
+    else:
+        t = np.linspace(0.0, 1.0, 1500)
+        x = np.stack([1e-3 * t, np.zeros_like(t), 0.1 * (1 - np.abs(2 * t - 1))], axis=1)
+        x += 2e-4 * rng.normal(size=x.shape)
+    y = x[np.linspace(0, len(x) - 1, 60).astype(int)].copy()
+    assigner = NearestNodeAssigner(x, window_size=5)
+    full_rows = []
+    original_full = assigner._full
+    assigner._full = lambda idx, nodes: (full_rows.append(idx), original_full(idx, nodes))
+    for k in range(40):
+        np.testing.assert_array_equal(assigner(y), assign_nearest(x, y))
+        moving = rng.choice(len(y), 3, replace=False)
+        y[moving] += rng.normal(scale=2e-3 / (1 + k % 10), size=(3, 3))
+    partial = [len(i) for i in full_rows if not isinstance(i, slice)]
+    if path == "fold":
+        assert partial, "the fold should need full rows for some samples"
+    assert sum(partial) < 40 * len(x) // 10  # the bounds still spare most of the work
+
+
 # ---- constraints through the fit
 
 

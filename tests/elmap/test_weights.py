@@ -4,6 +4,8 @@ import numpy as np
 import pytest
 
 from lerobot_forcemap.elmap import (
+    ForceNodeSums,
+    assign_nearest,
     cluster_sums,
     fit_force_elastic_map,
     force_point_weights,
@@ -129,3 +131,29 @@ def test_force_points_only_above_contact_threshold_and_none_for_zero_delta():
     np.testing.assert_array_equal(fp.source, [1, 2])
     np.testing.assert_allclose(fp.points, [[0, 0, -0.02], [-0.02, 0, 0]])  # behind the surface
     assert len(make_force_points(x, f, delta=0.0, f_contact=0.0)) == 0
+
+
+@pytest.mark.parametrize("rho_max", [None, 0.75, 0.05])
+def test_force_node_sums_equal_the_per_point_weights(rho_max):
+    """The EM loop's fused sums (no per-point weights) against force_point_weights + cluster_sums."""
+    rng = np.random.default_rng(7)
+    x = rng.normal(scale=0.05, size=(400, 3))
+    f = rng.normal(scale=10.0, size=(400, 3))
+    nodes = x[rng.choice(400, 12, replace=False)]
+    labels = assign_nearest(x, nodes)
+    fp = make_force_points(x, f, delta=0.01, f_contact=2.0)
+    tied = labels[fp.source]
+    spring = np.maximum(np.linalg.norm(fp.points - nodes[tied], axis=1), 0.01) * rng.uniform(1, 1.2, len(fp))
+    Wd, _ = cluster_sums(labels, None, x, 12)
+    fw = force_point_weights(
+        fp, tied, nodes, Wd, delta=0.01, stiffness=3000.0, rho_max=rho_max, spring_length=spring
+    )
+    want_W, want_b = cluster_sums(tied, fw.weights, fp.points, 12)
+    sums = ForceNodeSums(fp, 12, stiffness=3000.0, rho_max=rho_max)
+    for _ in range(2):  # the second call reuses the cached index
+        W, b, capped = sums(tied, spring, Wd)
+        np.testing.assert_allclose(W, want_W, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(b, want_b, rtol=1e-12, atol=1e-15)
+        np.testing.assert_array_equal(capped, fw.capped)
+    if rho_max == 0.05:
+        assert capped.any()
