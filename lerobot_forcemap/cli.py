@@ -1,4 +1,4 @@
-"""``forcemap`` command line: record / convert / segment / fit / eval / report.
+"""``forcemap`` command line: record / convert / segment / fit / eval / report / push.
 
 Each subcommand lives in its own module exposing ``add_arguments(parser)`` and ``run(args) -> int``;
 modules are imported only when their subcommand runs, so ``forcemap --help`` stays fast.
@@ -28,6 +28,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "evaluate a policy in a sim task, one JSON record per episode",
     ),
     "report": ("lerobot_forcemap.experiments.report", "tables and plots from eval records"),
+    "push": (
+        "lerobot_forcemap.experiments.push",
+        "push a dataset or a fitted policy to the Hugging Face Hub",
+    ),
 }
 
 

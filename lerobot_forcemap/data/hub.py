@@ -15,9 +15,16 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["CARD_FILE", "card_kwargs", "push_dataset"]
+__all__ = ["CARD_FILE", "card_kwargs", "check_repo_id", "push_dataset"]
 
 CARD_FILE = "meta/forcemap_card.json"
+
+
+def check_repo_id(repo_id: str) -> str:
+    """``repo_id`` if it reads ``owner/name``, else a ValueError naming it."""
+    if not isinstance(repo_id, str) or repo_id.count("/") != 1 or not all(repo_id.split("/")):
+        raise ValueError(f"repo_id must be 'owner/name', got {repo_id!r}")
+    return repo_id
 
 
 def card_kwargs(root: str | Path) -> dict[str, Any]:
@@ -50,8 +57,7 @@ def push_dataset(
     root = Path(root)
     if not (root / "meta" / "info.json").is_file():
         raise ValueError(f"{root}: not a LeRobot dataset (no meta/info.json)")
-    if repo_id.count("/") != 1 or not all(repo_id.split("/")):
-        raise ValueError(f"repo_id must be 'owner/name', got {repo_id!r}")
+    check_repo_id(repo_id)
     kwargs = card_kwargs(root)
     kwargs["tags"] = sorted({*kwargs.get("tags", ()), *(tags or ())}) or None
     license_id = kwargs.pop("license", "apache-2.0")

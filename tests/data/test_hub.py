@@ -78,3 +78,35 @@ def test_push_rejects_bad_input(tmp_path):
     (tmp_path / "meta" / "info.json").write_text("{}")
     with pytest.raises(ValueError, match="owner/name"):
         push_dataset(tmp_path, "just-a-name")
+
+
+def test_forcemap_push_cli_dataset(tmp_path, capsys):
+    """``forcemap push --dataset`` is push_dataset with the command line's repo id, privacy and tags."""
+    import huggingface_hub
+
+    from lerobot_forcemap.cli import main
+
+    root = tmp_path / "ds"
+    convert_recordings(
+        [write_recorder_file(tmp_path / "press_0.h5", make_streams(n=120))], root, fps=20, progress=False
+    )
+    with (
+        mock.patch("lerobot.datasets.lerobot_dataset.HfApi") as api_cls,
+        mock.patch.object(huggingface_hub.DatasetCard, "push_to_hub", autospec=True) as card_push,
+    ):
+        argv = [
+            "push",
+            "--dataset",
+            str(root),
+            "--repo-id",
+            "someone/press-demo",
+            "--private",
+            "--tag",
+            "ur5e",
+        ]
+        assert main(argv) == 0
+    assert "https://huggingface.co/datasets/someone/press-demo" in capsys.readouterr().out
+    api_cls.return_value.create_repo.assert_called_once_with(
+        repo_id="someone/press-demo", private=True, repo_type="dataset", exist_ok=True
+    )
+    assert "- ur5e" in card_push.call_args.args[0].content

@@ -98,3 +98,33 @@ def test_lerobot_train_style_push(press_checkpoint, hub):
 def test_missing_repo_is_a_clear_error(hub):
     with pytest.raises(ValueError, match="cannot read the policy config"):
         ForceMapPolicy.from_pretrained("someone/does-not-exist")
+
+
+def test_forcemap_push_cli_sends_a_loadable_policy(press_checkpoint, hub, capsys):
+    """``forcemap push --policy``: config, weights and both processors in one model repo, loadable back."""
+    from lerobot_forcemap.cli import main
+
+    assert main(["push", "--policy", str(press_checkpoint), "--repo-id", REPO, "--private"]) == 0
+    assert f"https://huggingface.co/{REPO}" in capsys.readouterr().out
+    hub.api.create_repo.assert_any_call(repo_id=REPO, private=True, exist_ok=True)
+    pushed = {p.name for p in (hub.root / REPO).iterdir()}
+    assert {
+        "config.json",
+        "model.safetensors",
+        "policy_preprocessor.json",
+        "policy_postprocessor.json",
+    } <= pushed
+    back = ForceMapPolicy.from_pretrained(REPO)
+    local = ForceMapPolicy.from_pretrained(press_checkpoint)
+    for name in SKILL_TENSORS:
+        assert torch.equal(getattr(back, name), getattr(local, name)), name
+
+
+def test_forcemap_push_cli_rejects_bad_input(tmp_path, hub):
+    from lerobot_forcemap.experiments.push import push_policy
+
+    with pytest.raises(ValueError, match="no config.json"):
+        push_policy(tmp_path, REPO)
+    with pytest.raises(ValueError, match="owner/name"):
+        push_policy(tmp_path, "no-owner")
+    hub.api.upload_folder.assert_not_called()
