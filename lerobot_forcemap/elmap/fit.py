@@ -206,18 +206,21 @@ class NearestNodeAssigner:
         np.multiply(nodes.T, -2.0, out=rhs[:-1])
         rhs[-1] = np.einsum("ij,ij->i", nodes, nodes)
         d2 = self.augmented[idx] @ rhs  # squared distances minus ‖x‖²
-        rows = np.arange(d2.shape[0])[:, None]
+        # Row minima by argmin + gather: numpy's argmin over short rows is about twice as fast as min.
+        rows = np.arange(d2.shape[0])
         first = np.argmin(d2, axis=1)
-        best = d2[rows[:, 0], first]
-        win = self.windows[:, first].T
-        near = np.where(win == first[:, None], np.inf, d2[rows, win])
-        d2[rows, win] = np.inf
-        outside = np.min(d2, axis=1)  # inf where the window holds every node
+        best = d2[rows, first]
+        win = np.take(self.windows, first, axis=1)  # (k, m), C-ordered (fancy indexing would give F)
+        flat = win + (rows * d2.shape[1])  # (k, m) C-ordered, so the gathers below are too
+        near = np.take(d2, flat)
+        near[win == first] = np.inf
+        np.put(d2, flat, np.inf)
+        outside = d2[rows, np.argmin(d2, axis=1)]  # inf where the window holds every node
         sq = self.sq[idx]
         self.labels[idx] = first
         self.center[idx] = first
         self.upper[idx] = np.sqrt(np.maximum(best + sq, 0.0))
-        self.lower_in[idx] = np.sqrt(np.maximum(np.min(near, axis=1) + sq, 0.0))
+        self.lower_in[idx] = np.sqrt(np.maximum(np.min(near, axis=0) + sq, 0.0))
         self.lower_out[idx] = np.sqrt(np.maximum(outside + sq, 0.0))
 
     def __call__(self, nodes: Array) -> NDArray[np.intp]:
@@ -245,7 +248,7 @@ class NearestNodeAssigner:
         """Samples whose bounds cross: the window decides when its nearest node beats ``lower_out``."""
         center = self.center[idx]
         # (k, m) layout: reductions over the k window nodes run along contiguous rows
-        win = self.windows[:, center]
+        win = np.take(self.windows, center, axis=1)
         near = point_node_distances(self.columns, node_columns, win, idx)
         cols = np.arange(len(idx))
         j = np.argmin(near, axis=0)
