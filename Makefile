@@ -16,7 +16,7 @@ PYTEST_ARGS ?=
 
 venv: $(VENV)/.installed
 
-$(VENV)/.installed: pyproject.toml constraints.txt
+$(VENV)/.installed: pyproject.toml constraints.txt setup.py lerobot_forcemap/elmap/_emkernel.c
 	@if [ -z "$(PYTHON312)" ]; then echo "error: python3.12 not found (set PYTHON312=/path/to/python3.12)" >&2; exit 1; fi
 	@[ -x $(PY) ] || $(PYTHON312) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade "pip>=24"

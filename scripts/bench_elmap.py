@@ -5,7 +5,9 @@ force points, with EM iterations (a synthetic wipe, plus a press-like path that 
 and in the same run the same problems solved the way the authors' code does (dense stacked clustering
 matrix B and weight matrix A = diag(B·1), dense stacked E and R, a cvxpy problem rebuilt every M-step,
 OSQP with warm start; EM capped at 50 iterations, stopping on unchanged assignments), with our force
-points and weights so both solve the same problems.
+points and weights so both solve the same problems. Ours is timed twice: as installed (with the
+compiled E-step loops when they were built) and on the NumPy reference path; the two fits are checked
+to be identical.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python scripts/bench_elmap.py [--repeats 7] [--baseline-repeats 3] [--quick]
 """
@@ -39,6 +41,7 @@ from lerobot_forcemap.elmap import (  # noqa: E402
     force_point_weights,
     make_force_points,
 )
+from lerobot_forcemap.elmap.kernel import NUMPY_ENV, load_em_kernel  # noqa: E402
 
 
 def wipe_problem(m: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -156,16 +159,27 @@ def main() -> int:
         ("wipe", m, n, force) for m in (1000, 2730, 10000) for n in (50, 100, 200) for force in (False, True)
     ]
     grid += [("fold", 2730, 100, force) for force in (False, True)]
+    compiled = load_em_kernel() is not None
     for path, m, n, force in tqdm(grid, desc="bench_elmap"):
         x, f = PROBLEMS[path](m)
         forces = f if force else None
         ours_s, fit = median_time(lambda: fit_force_elastic_map(x, forces, n_nodes=n), args.repeats)  # noqa: B023
+        as_installed = os.environ.get(NUMPY_ENV)
+        os.environ[NUMPY_ENV] = "1"  # the NumPy reference path, same problem
+        numpy_s, numpy_fit = median_time(lambda: fit_force_elastic_map(x, forces, n_nodes=n), args.repeats)  # noqa: B023
+        if as_installed is None:
+            del os.environ[NUMPY_ENV]
+        else:
+            os.environ[NUMPY_ENV] = as_installed
+        assert np.array_equal(numpy_fit.nodes, fit.nodes), "compiled and NumPy paths disagree"
         row = dict(
             path=path,
             M=m,
             N=n,
             forces=force,
             ours_ms=1e3 * ours_s,
+            numpy_ms=1e3 * numpy_s,
+            compiled=compiled,
             ours_iter=fit.n_iter,
             ours_stop=fit.stop_reason,
         )
@@ -177,11 +191,15 @@ def main() -> int:
     print(
         f"\nmachine: {platform.machine()}, {os.cpu_count()} cores, OPENBLAS_NUM_THREADS={os.environ['OPENBLAS_NUM_THREADS']}"
     )
-    print(f"ours: median of {args.repeats} fits; cvxpy + OSQP: median of {args.baseline_repeats}\n")
     print(
-        "| path | M | N | forces | ours (ms) | ours iters (stop) | cvxpy+OSQP (ms) | cvxpy iters | speed-up |"
+        f"ours: median of {args.repeats} fits ({'with' if compiled else 'WITHOUT'} the compiled E-step loops; "
+        f"'NumPy path' = {NUMPY_ENV}=1); cvxpy + OSQP: median of {args.baseline_repeats}\n"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print(
+        "| path | M | N | forces | ours (ms) | NumPy path (ms) | ours iters (stop) | cvxpy+OSQP (ms) "
+        "| cvxpy iters | speed-up |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         base = (
             f"{r['cvxpy_ms']:.0f} | {r['cvxpy_iter']} | {r['speedup']:.0f}x"
@@ -190,7 +208,7 @@ def main() -> int:
         )
         print(
             f"| {r['path']} | {r['M']} | {r['N']} | {'yes' if r['forces'] else 'no'} | {r['ours_ms']:.2f} | "
-            f"{r['ours_iter']} ({r['ours_stop']}) | {base} |"
+            f"{r['numpy_ms']:.2f} | {r['ours_iter']} ({r['ours_stop']}) | {base} |"
         )
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=2))

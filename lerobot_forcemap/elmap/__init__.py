@@ -1,5 +1,6 @@
-"""Force-constrained elastic maps (paper §III-B/C, SPEC §1). Pure NumPy/SciPy/Clarabel: no LeRobot,
-torch or MuJoCo import here.
+"""Force-constrained elastic maps (paper §III-B/C, SPEC §1). NumPy/SciPy/Clarabel, plus optional C loops
+for the EM's per-sample work (:mod:`.kernel`; the NumPy path is the reference): no LeRobot, torch or
+MuJoCo import here.
 
     from lerobot_forcemap.elmap import fit_force_elastic_map, Constraints, ElasticMapFit
 """

@@ -4,9 +4,12 @@
     fit.nodes            # (N, d) the reproduction path
     fit.position_at(t)   # query along the time law
 
-E-step: every demo sample goes to its nearest node (one vectorised distance matrix). M-step: the
-banded solve of :mod:`.solve` (Clarabel when inequality constraints are present). Force points are
-tied to the node of their source sample; their weights are recomputed every iteration.
+E-step: every demo sample goes to its exact nearest node (:class:`NearestNodeAssigner`: bounds that
+skip most distances). M-step: the banded solve of :mod:`.solve` (Clarabel when inequality constraints
+are present). Force points are tied to the node of their source sample; their weights are recomputed
+every iteration. The per-sample work (E-step, cluster sums, spring lengths) runs in the compiled loops
+of :mod:`.kernel` when they are built, with the same arithmetic as the NumPy code here (bit-identical
+fits, tested); ``LEROBOT_FORCEMAP_NUMPY_EM=1`` selects the NumPy path.
 
 Decisions where the paper is silent (documented in the README too):
 - ``S`` (the approximation-energy normaliser) sums the norms of the *demo* point weights only.
@@ -37,6 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..geometry import slerp_sequence
 from .constraints import Constraints, ResolvedConstraints, resolve_constraints
+from .kernel import EMKernel, load_em_kernel
 from .solve import BandedMStep, EnergyTerms, InequalityRows, energy_terms, solve_m_step_clarabel
 from .timing import node_orientations, node_time_law
 from .weights import ForceNodeSums, ForcePoints, cluster_sums, make_force_points, row_norms
@@ -531,31 +535,46 @@ def fit_force_elastic_map(
     n_rows = 0
     energy = EnergyTerms(0.0, 0.0, 0.0)  # replaced by the first M-step
     it = 0
-    assigner = NearestNodeAssigner(x, scale=scale)
     banded = None if use_clarabel else BandedMStep(n_nodes, dim, lam, mu, rc.fixed_index, rc.fixed_value)
-    unit_weights = weights is None
-    force_sums = None if fp is None else ForceNodeSums(fp, n_nodes, stiffness, rho_max)
-    fp_columns = None if fp is None else np.ascontiguousarray(fp.points.T)
+    demo_w = None if weights is None else w
+    # The per-sample work runs in the compiled loops when they are built (same arithmetic, see
+    # .kernel), else in NumPy.
+    lib = load_em_kernel()
+    kernel = None if lib is None else EMKernel(lib, x, scale)
+    assign = NearestNodeAssigner(x, scale=scale) if kernel is None else kernel.assign
+    if fp is not None:
+        force_sums = ForceNodeSums(fp, n_nodes, stiffness, rho_max)
+        if kernel is None:
+            fp_columns = np.ascontiguousarray(fp.points.T)
+        else:
+            kernel.set_force_points(fp.source, fp.points, force_sums.moments, omega, n_nodes)
     for it in range(1, max_iter + 1):  # noqa: B007 (it is reported after the loop)
-        labels = assigner(y)
+        labels = assign(y)
         same = labels_prev is not None and np.array_equal(labels, labels_prev)  # cheap: M ints
         if same and fp is None:
             # Same assignment, nothing else that moves: the M-step would return these nodes again.
             reason = "converged"
             break
         if not same:
-            W_demo, b_demo = cluster_sums(labels, None if unit_weights else w, x, n_nodes)
+            if kernel is None:
+                W_demo, b_demo = cluster_sums(labels, demo_w, x, n_nodes)
+            else:
+                W_demo, b_demo = kernel.cluster_sums(demo_w)
         W, b = W_demo, b_demo
         if fp is not None:
-            tied = labels[fp.source]
-            target = np.maximum(point_node_distances(fp_columns, np.ascontiguousarray(y.T), tied), delta)
-            if spring is None:
-                spring = target
+            if kernel is not None:
+                sums, spring_moved = kernel.force_sums(delta=delta, stiffness=stiffness, init=it == 1)
             else:
-                new_spring = spring + omega * (target - spring)
-                spring_moved = float(np.max(np.abs(new_spring - spring)))
-                spring = new_spring
-            Wf, bf, capped = force_sums(tied, spring, W_demo)
+                tied = labels[fp.source]
+                target = np.maximum(point_node_distances(fp_columns, np.ascontiguousarray(y.T), tied), delta)
+                if spring is None:
+                    spring = target
+                else:
+                    new_spring = spring + omega * (target - spring)
+                    spring_moved = float(np.max(np.abs(new_spring - spring)))
+                    spring = new_spring
+                sums = force_sums.raw(tied, spring)
+            Wf, bf, capped = force_sums.finish(sums, W_demo)
             W = W + Wf
             b = b + bf
         extra = None
@@ -592,7 +611,7 @@ def fit_force_elastic_map(
             break
         labels_prev = labels
 
-    labels = assigner(y)  # the assignment to the returned nodes (bounds make this cheap)
+    labels = assign(y)  # the assignment to the returned nodes (bounds make this cheap)
     node_t = node_time_law(labels, u, n_nodes, duration)
     quats = None
     if quat_list is not None:

@@ -163,8 +163,9 @@ class ForceNodeSums:
     Equal to ``cluster_sums(tied, force_point_weights(...).weights, fp.points, N)`` (tested), but the
     per-point weights are never formed: every point's weight on axis q is ``−|f_q|/(k·Δ)`` and the
     cap scales whole node axes, so ``W_f = −scale ⊙ Σ |f|/(kΔ)`` and ``b_f = −scale ⊙ Σ |f| p/(kΔ)``
-    come from one ``bincount`` over the (K, 2d) products ``[|f|, |f|⊙p] / (kΔ)``. Its index is
-    rebuilt only when the assignment of the force points changes.
+    come from one ``bincount`` over the (K, 2d) ``moments = [|f|, |f|⊙p]`` divided by ``kΔ``
+    (:meth:`raw`; the compiled loops of :mod:`.kernel` fill the same (N, 2d) sums), then the cap
+    (:meth:`finish`). The ``bincount`` index is rebuilt only when the assignment changes.
     """
 
     def __init__(self, fp: ForcePoints, n_nodes: int, stiffness: float, rho_max: float | None) -> None:
@@ -174,19 +175,27 @@ class ForceNodeSums:
         self._tied: NDArray[np.intp] | None = None
         self._flat: NDArray[np.intp] | None = None
 
-    def __call__(
-        self, tied_node: NDArray[np.intp], spring_length: Array, demo_weight_sum: Array
-    ) -> tuple[Array, Array, NDArray[np.bool_]]:
-        """W_f, b_f (N, d) and the capped mask (N, d) for tied_node (K,) and spring lengths Δ (K,) >= δ."""
+    def raw(self, tied_node: NDArray[np.intp], spring_length: Array) -> Array:
+        """Per-node sums (N, 2d) of ``moments / (k·Δ)`` for tied_node (K,) and spring lengths Δ (K,)."""
         n, d = self.n, self.d
         if self._tied is None or not np.array_equal(tied_node, self._tied):
             self._tied = tied_node
             self._flat = (tied_node[:, None] * (2 * d) + np.arange(2 * d)).ravel()
         inv = 1.0 / (self.stiffness * spring_length)
         sums = np.bincount(self._flat, weights=(self.moments * inv[:, None]).ravel(), minlength=n * 2 * d)
-        sums = sums.reshape(n, 2 * d)
+        return sums.reshape(n, 2 * d)
+
+    def finish(self, sums: Array, demo_weight_sum: Array) -> tuple[Array, Array, NDArray[np.bool_]]:
+        """W_f, b_f (N, d) and the capped mask (N, d) from the raw sums (N, 2d)."""
+        d = self.d
         scale, capped, _ = _cap(sums[:, :d], demo_weight_sum, self.rho_max)
         return -scale * sums[:, :d], -scale * sums[:, d:], capped
+
+    def __call__(
+        self, tied_node: NDArray[np.intp], spring_length: Array, demo_weight_sum: Array
+    ) -> tuple[Array, Array, NDArray[np.bool_]]:
+        """W_f, b_f (N, d) and the capped mask (N, d) for tied_node (K,) and spring lengths Δ (K,) >= δ."""
+        return self.finish(self.raw(tied_node, spring_length), demo_weight_sum)
 
 
 def project_on_contact_normal(forces: Array, normal: Array) -> Array:

@@ -1,0 +1,172 @@
+"""Optional C loops for the EM's per-sample work (``_emkernel.c``), called through ctypes.
+
+The package builds ``_emkernel`` when it is installed (an optional extension: with no C compiler the
+install goes on without it). :func:`load_em_kernel` returns ``None`` when it is missing, or when
+``LEROBOT_FORCEMAP_NUMPY_EM=1`` asks for the NumPy path; :func:`~.fit.fit_force_elastic_map` then runs
+the NumPy E-step and sums, which are the reference: the C loops do the same arithmetic in the same
+order (tested to agree), they only drop NumPy's per-call overhead, which is what dominates on arrays
+of a few thousand samples.
+
+    kernel = EMKernel(lib, points, scale)    # one per fit; owns the bounds and the work arrays
+    labels = kernel.assign(nodes)            # E-step
+    W, b = kernel.cluster_sums(w)            # demo cluster sums (N, d) of that assignment
+    kernel.set_force_points(source, points, moments, omega, n_nodes)
+    sums, moved = kernel.force_sums(delta=δ, stiffness=k, init=True)  # springs, raw force sums
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+import importlib.util
+import os
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["EMKernel", "load_em_kernel", "NUMPY_ENV"]
+
+Array = NDArray[np.float64]
+
+#: set to 1 to run the NumPy reference path even where the C loops are built
+NUMPY_ENV = "LEROBOT_FORCEMAP_NUMPY_EM"
+
+_P = ctypes.c_void_p
+_I = ctypes.c_int64
+_D = ctypes.c_double
+
+
+@functools.cache
+def _library() -> ctypes.CDLL | None:
+    try:
+        spec = importlib.util.find_spec("lerobot_forcemap.elmap._emkernel")
+    except (ImportError, ValueError):
+        return None
+    if spec is None or not spec.origin:
+        return None
+    try:
+        lib = ctypes.CDLL(spec.origin)
+    except OSError:
+        return None
+    lib.fm_assign.argtypes = [
+        _I,
+        _I,
+        _I,
+        _P,
+        _P,
+        _P,
+        ctypes.c_int,
+        _P,
+        _P,
+        _P,
+        _P,
+        _P,
+        _D,
+        _P,
+        _P,
+        _P,
+        _P,
+        _P,
+    ]
+    lib.fm_assign.restype = _I
+    lib.fm_cluster_sums.argtypes = [_I, _I, _I, _P, _P, _P, _P, _P]
+    lib.fm_cluster_sums.restype = None
+    lib.fm_force_sums.argtypes = [_I, _I, _I, _P, _P, _P, _P, _P, _P, _D, _D, ctypes.c_int, _P, _P]
+    lib.fm_force_sums.restype = _D
+    return lib
+
+
+def load_em_kernel() -> ctypes.CDLL | None:
+    """The compiled loops, or ``None`` (not built, or ``LEROBOT_FORCEMAP_NUMPY_EM=1``)."""
+    if os.environ.get(NUMPY_ENV, "") not in ("", "0"):
+        return None
+    return _library()
+
+
+def _ptr(a: np.ndarray) -> int:
+    return a.ctypes.data
+
+
+class EMKernel:
+    """The C loops bound to one fit's samples ``points (M, d)``; ``scale`` is the data's extent.
+
+    Its state is the last E-step: :meth:`assign` keeps the labels, the bounds (as
+    :class:`~.fit.NearestNodeAssigner` does, whose results it reproduces: exact nearest nodes, ties to
+    the lowest index) and the nodes; :meth:`cluster_sums` and :meth:`force_sums` work on that
+    assignment and those nodes. Arrays handed out are copies. Every array the C code touches lives
+    as long as the kernel, so its address is taken once (ctypes converts plain ints fastest).
+    """
+
+    def __init__(self, lib: ctypes.CDLL, points: Array, scale: float) -> None:
+        self.lib = lib
+        self.x = np.ascontiguousarray(points, dtype=np.float64)
+        self.m, self.d = self.x.shape
+        self.labels = np.zeros(self.m, dtype=np.int64)
+        self.center = np.zeros(self.m, dtype=np.int64)
+        self.bounds = np.empty((3, self.m))  # upper, lower_in, lower_out
+        self.slack = 1e-9 * max(scale, 1e-12)  # as NearestNodeAssigner: re-examine unless clearly decided
+        self.n = 0
+        self._x, self._labels, self._center = _ptr(self.x), _ptr(self.labels), _ptr(self.center)
+        b = _ptr(self.bounds)
+        self._bounds = (b, b + 8 * self.m, b + 16 * self.m)
+
+    def _start(self, n: int) -> None:
+        self.n = n
+        self.nodes = np.empty(
+            (2, n, self.d)
+        )  # this call's nodes in slot self.now, the previous call's in the other
+        self.now = 0
+        self.sums_demo = np.empty((2, n, self.d))  # W, b
+        # squared node distances (N, N); reaches, moves, window moves, row flags (N each)
+        self.work = np.empty(n * n + 4 * n)
+        y, w, s = _ptr(self.nodes), _ptr(self.work), _ptr(self.sums_demo)
+        self._nodes = (y, y + 8 * n * self.d)
+        self._work = (w, *(w + 8 * (n * n + k * n) for k in range(4)))
+        self._sums_demo = (s, s + 8 * n * self.d)
+
+    def assign(self, nodes: Array) -> NDArray[np.intp]:
+        """Nearest node (M,) of every sample for ``nodes (N, d)``."""
+        first = nodes.shape != (self.n, self.d)
+        if first:
+            self._start(nodes.shape[0])
+        else:
+            self.now = 1 - self.now
+        self.nodes[self.now] = nodes
+        self.lib.fm_assign(
+            self.m, self.n, self.d, self._x, self._nodes[self.now], self._nodes[1 - self.now], int(first), self._labels,
+            self._center, *self._bounds, self.slack, *self._work,
+        )  # fmt: skip
+        return self.labels.copy()
+
+    def cluster_sums(self, w: Array | None) -> tuple[Array, Array]:
+        """``W, b (N, d)`` of the last assignment, as :func:`~.weights.cluster_sums` (``w`` (M, d) or
+        ``None`` for unit weights)."""
+        wp = None if w is None else _ptr(np.ascontiguousarray(w, dtype=np.float64))
+        self.lib.fm_cluster_sums(self.m, self.n, self.d, self._labels, self._x, wp, *self._sums_demo)
+        return self.sums_demo[0].copy(), self.sums_demo[1].copy()
+
+    def set_force_points(
+        self, source: NDArray[np.intp], points: Array, moments: Array, omega: Array, n_nodes: int
+    ) -> None:
+        """The force points of this fit: source sample (K,), point (K, d), ``moments (K, 2d) =
+        [|f|, |f|⊙p]``, relaxation ω (K,); allocates the spring lengths (K,) and the sums (N, 2d)."""
+        self.fp = (
+            np.ascontiguousarray(source, dtype=np.int64),
+            np.ascontiguousarray(points, dtype=np.float64),
+            np.ascontiguousarray(moments, dtype=np.float64),
+            np.ascontiguousarray(omega, dtype=np.float64),
+        )
+        self.spring = np.empty(len(source))
+        self.sums = np.empty((n_nodes, 2 * self.d))
+        self._fp = tuple(_ptr(a) for a in self.fp)
+        self._spring, self._sums = _ptr(self.spring), _ptr(self.sums)
+
+    def force_sums(self, *, delta: float, stiffness: float, init: bool) -> tuple[Array, float]:
+        """For the last assignment and nodes: relax ``spring`` towards ``max(|p − y_tied|, δ)`` (set it
+        when ``init``); returns the per-node sums (N, 2d) of ``moments / (k·Δ)`` and the largest
+        spring change (0 when init)."""
+        moved = self.lib.fm_force_sums(
+            len(self.spring), self.n, self.d, self._fp[0], self._labels, self._fp[1], self._fp[2],
+            self._fp[3], self._nodes[self.now], delta, stiffness, int(init), self._spring, self._sums,
+        )  # fmt: skip
+        return self.sums.copy(), moved
