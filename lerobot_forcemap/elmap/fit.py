@@ -49,6 +49,8 @@ __all__ = [
     "ElasticMapFit",
     "fit_force_elastic_map",
     "assign_nearest",
+    "NearestNodeAssigner",
+    "NumpyEMSteps",
     "arc_length",
     "arc_length_resample",
     "DEFAULT_LAMBDA",
@@ -279,6 +281,49 @@ class NearestNodeAssigner:
         self.lower_in[ok] = np.min(near, axis=0)[decided]
         if undecided.any():
             self._full(idx[undecided], nodes)
+
+
+class NumpyEMSteps:
+    """The EM's per-sample work in NumPy — the reference for :class:`~.kernel.EMKernel`, same interface.
+
+    The state is the last E-step: :meth:`assign` keeps the labels and the nodes; :meth:`cluster_sums`
+    and :meth:`force_sums` work on them.
+    """
+
+    def __init__(self, points: Array, scale: float) -> None:
+        self.x = points
+        self.assigner = NearestNodeAssigner(points, scale=scale)
+
+    def assign(self, nodes: Array) -> NDArray[np.intp]:
+        """Nearest node (M,) of every sample for ``nodes (N, d)``."""
+        self.labels = self.assigner(nodes)
+        self.nodes = nodes
+        return self.labels
+
+    def cluster_sums(self, w: Array | None) -> tuple[Array, Array]:
+        """``W, b (N, d)`` of the last assignment (``w`` (M, d) or ``None`` for unit weights)."""
+        return cluster_sums(self.labels, w, self.x, self.nodes.shape[0])
+
+    def set_force_points(self, fp: ForcePoints, sums: ForceNodeSums, omega: Array) -> None:
+        """The force points, their :class:`ForceNodeSums` and spring relaxation ω (K,)."""
+        self.fp, self.sums, self.omega = fp, sums, omega
+        self.fp_columns = np.ascontiguousarray(fp.points.T)
+        self.spring: Array | None = None
+
+    def force_sums(self, *, delta: float, stiffness: float, init: bool) -> tuple[Array, float]:
+        """For the last assignment and nodes: spring lengths relaxed towards ``max(‖p − y_tied‖, δ)``
+        (set when ``init``); returns the raw per-node sums (N, 2d) and the largest spring change."""
+        tied = self.labels[self.fp.source]
+        target = point_node_distances(self.fp_columns, np.ascontiguousarray(self.nodes.T), tied)
+        target = np.maximum(target, delta)
+        moved = 0.0
+        if init or self.spring is None:
+            self.spring = target
+        else:
+            new_spring = self.spring + self.omega * (target - self.spring)
+            moved = float(np.max(np.abs(new_spring - self.spring)))
+            self.spring = new_spring
+        return self.sums.raw(tied, self.spring), moved
 
 
 def arc_length(path: Array) -> Array:
@@ -528,7 +573,6 @@ def fit_force_elastic_map(
     labels_prev: NDArray[np.intp] | None = None
     hashes: list[int] = []
     history: list[float] = []
-    spring = None
     spring_moved = 0.0
     reason = "max_iter"
     capped = np.zeros((n_nodes, dim), dtype=bool)
@@ -537,43 +581,24 @@ def fit_force_elastic_map(
     it = 0
     banded = None if use_clarabel else BandedMStep(n_nodes, dim, lam, mu, rc.fixed_index, rc.fixed_value)
     demo_w = None if weights is None else w
-    # The per-sample work runs in the compiled loops when they are built (same arithmetic, see
-    # .kernel), else in NumPy.
+    # The per-sample work: the compiled loops when they are built (same arithmetic), else NumPy.
     lib = load_em_kernel()
-    kernel = None if lib is None else EMKernel(lib, x, scale)
-    assign = NearestNodeAssigner(x, scale=scale) if kernel is None else kernel.assign
+    steps = NumpyEMSteps(x, scale) if lib is None else EMKernel(lib, x, scale)
     if fp is not None:
         force_sums = ForceNodeSums(fp, n_nodes, stiffness, rho_max)
-        if kernel is None:
-            fp_columns = np.ascontiguousarray(fp.points.T)
-        else:
-            kernel.set_force_points(fp.source, fp.points, force_sums.moments, omega, n_nodes)
+        steps.set_force_points(fp, force_sums, omega)
     for it in range(1, max_iter + 1):  # noqa: B007 (it is reported after the loop)
-        labels = assign(y)
+        labels = steps.assign(y)
         same = labels_prev is not None and np.array_equal(labels, labels_prev)  # cheap: M ints
         if same and fp is None:
             # Same assignment, nothing else that moves: the M-step would return these nodes again.
             reason = "converged"
             break
         if not same:
-            if kernel is None:
-                W_demo, b_demo = cluster_sums(labels, demo_w, x, n_nodes)
-            else:
-                W_demo, b_demo = kernel.cluster_sums(demo_w)
+            W_demo, b_demo = steps.cluster_sums(demo_w)
         W, b = W_demo, b_demo
         if fp is not None:
-            if kernel is not None:
-                sums, spring_moved = kernel.force_sums(delta=delta, stiffness=stiffness, init=it == 1)
-            else:
-                tied = labels[fp.source]
-                target = np.maximum(point_node_distances(fp_columns, np.ascontiguousarray(y.T), tied), delta)
-                if spring is None:
-                    spring = target
-                else:
-                    new_spring = spring + omega * (target - spring)
-                    spring_moved = float(np.max(np.abs(new_spring - spring)))
-                    spring = new_spring
-                sums = force_sums.raw(tied, spring)
+            sums, spring_moved = steps.force_sums(delta=delta, stiffness=stiffness, init=it == 1)
             Wf, bf, capped = force_sums.finish(sums, W_demo)
             W = W + Wf
             b = b + bf
@@ -611,7 +636,7 @@ def fit_force_elastic_map(
             break
         labels_prev = labels
 
-    labels = assign(y)  # the assignment to the returned nodes (bounds make this cheap)
+    labels = steps.assign(y)  # the assignment to the returned nodes (bounds make this cheap)
     node_t = node_time_law(labels, u, n_nodes, duration)
     quats = None
     if quat_list is not None:

@@ -10,7 +10,7 @@ of a few thousand samples.
     kernel = EMKernel(lib, points, scale)    # one per fit; owns the bounds and the work arrays
     labels = kernel.assign(nodes)            # E-step
     W, b = kernel.cluster_sums(w)            # demo cluster sums (N, d) of that assignment
-    kernel.set_force_points(source, points, moments, omega, n_nodes)
+    kernel.set_force_points(fp, ForceNodeSums(fp, N, k, rho_max), omega)
     sums, moved = kernel.force_sums(delta=δ, stiffness=k, init=True)  # springs, raw force sums
 """
 
@@ -23,6 +23,8 @@ import os
 
 import numpy as np
 from numpy.typing import NDArray
+
+from .weights import ForceNodeSums, ForcePoints
 
 __all__ = ["EMKernel", "load_em_kernel", "NUMPY_ENV"]
 
@@ -89,6 +91,7 @@ def _ptr(a: np.ndarray) -> int:
 
 class EMKernel:
     """The C loops bound to one fit's samples ``points (M, d)``; ``scale`` is the data's extent.
+    Same interface as :class:`~.fit.NumpyEMSteps`, the reference it reproduces.
 
     Its state is the last E-step: :meth:`assign` keeps the labels, the bounds (as
     :class:`~.fit.NearestNodeAssigner` does, whose results it reproduces: exact nearest nodes, ties to
@@ -145,19 +148,18 @@ class EMKernel:
         self.lib.fm_cluster_sums(self.m, self.n, self.d, self._labels, self._x, wp, *self._sums_demo)
         return self.sums_demo[0].copy(), self.sums_demo[1].copy()
 
-    def set_force_points(
-        self, source: NDArray[np.intp], points: Array, moments: Array, omega: Array, n_nodes: int
-    ) -> None:
-        """The force points of this fit: source sample (K,), point (K, d), ``moments (K, 2d) =
-        [|f|, |f|⊙p]``, relaxation ω (K,); allocates the spring lengths (K,) and the sums (N, 2d)."""
+    def set_force_points(self, fp: ForcePoints, sums: ForceNodeSums, omega: Array) -> None:
+        """The force points, their :class:`~.weights.ForceNodeSums` (for ``moments (K, 2d) =
+        [|f|, |f|⊙p]`` and N) and spring relaxation ω (K,); allocates the spring lengths (K,) and the
+        sums (N, 2d)."""
         self.fp = (
-            np.ascontiguousarray(source, dtype=np.int64),
-            np.ascontiguousarray(points, dtype=np.float64),
-            np.ascontiguousarray(moments, dtype=np.float64),
+            np.ascontiguousarray(fp.source, dtype=np.int64),
+            np.ascontiguousarray(fp.points, dtype=np.float64),
+            np.ascontiguousarray(sums.moments, dtype=np.float64),
             np.ascontiguousarray(omega, dtype=np.float64),
         )
-        self.spring = np.empty(len(source))
-        self.sums = np.empty((n_nodes, 2 * self.d))
+        self.spring = np.empty(len(fp))
+        self.sums = np.empty((sums.n, 2 * self.d))
         self._fp = tuple(_ptr(a) for a in self.fp)
         self._spring, self._sums = _ptr(self.spring), _ptr(self.sums)
 

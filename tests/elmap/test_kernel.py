@@ -116,7 +116,7 @@ def test_compiled_sums_match_the_numpy_ones(lib):
     fp = make_force_points(x, f, 0.01, 2.0)
     sums = ForceNodeSums(fp, 40, stiffness=3000.0, rho_max=0.75)
     omega = np.full(len(fp), 0.8)
-    kernel.set_force_points(fp.source, fp.points, sums.moments, omega, 40)
+    kernel.set_force_points(fp, sums, omega)
     raw, moved = kernel.force_sums(delta=0.01, stiffness=3000.0, init=True)
     spring = np.maximum(np.linalg.norm(fp.points - y[labels[fp.source]], axis=1), 0.01)
     np.testing.assert_allclose(kernel.spring, spring, rtol=1e-15)
