@@ -19,6 +19,10 @@
 #include <math.h>
 #include <stdint.h>
 
+/* Bumped whenever a signature below changes; kernel.py refuses a library built from another version
+   (a stale build in an editable checkout) and falls back to NumPy. */
+int64_t fm_abi_version(void) { return 1; }
+
 static double sq_dist(const double *a, const double *b, int64_t d) {
     double s = 0.0;
     for (int64_t q = 0; q < d; q++) {

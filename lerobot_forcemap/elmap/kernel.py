@@ -20,6 +20,7 @@ import ctypes
 import functools
 import importlib.util
 import os
+import warnings
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,10 +33,8 @@ Array = NDArray[np.float64]
 
 #: set to 1 to run the NumPy reference path even where the C loops are built
 NUMPY_ENV = "LEROBOT_FORCEMAP_NUMPY_EM"
-
-_P = ctypes.c_void_p
-_I = ctypes.c_int64
-_D = ctypes.c_double
+#: fm_abi_version() of the C source these bindings are written for
+ABI_VERSION = 1
 
 
 @functools.cache
@@ -48,33 +47,27 @@ def _library() -> ctypes.CDLL | None:
         return None
     try:
         lib = ctypes.CDLL(spec.origin)
-    except OSError:
+        lib.fm_abi_version.restype = ctypes.c_int64
+        built = lib.fm_abi_version()
+    except (OSError, AttributeError):
         return None
-    lib.fm_assign.argtypes = [
-        _I,
-        _I,
-        _I,
-        _P,
-        _P,
-        _P,
-        ctypes.c_int,
-        _P,
-        _P,
-        _P,
-        _P,
-        _P,
-        _D,
-        _P,
-        _P,
-        _P,
-        _P,
-        _P,
-    ]
-    lib.fm_assign.restype = _I
-    lib.fm_cluster_sums.argtypes = [_I, _I, _I, _P, _P, _P, _P, _P]
-    lib.fm_cluster_sums.restype = None
-    lib.fm_force_sums.argtypes = [_I, _I, _I, _P, _P, _P, _P, _P, _P, _D, _D, ctypes.c_int, _P, _P]
-    lib.fm_force_sums.restype = _D
+    if built != ABI_VERSION:
+        warnings.warn(
+            f"{spec.origin} was built from another version of _emkernel.c (ABI {built}, need "
+            f"{ABI_VERSION}); using the NumPy EM path. Reinstall the package (pip install -e .) to rebuild it.",
+            stacklevel=2,
+        )
+        return None
+    # argument types, one letter each: i int64, p pointer, d double, c int (see _emkernel.c)
+    kinds = {"i": ctypes.c_int64, "p": ctypes.c_void_p, "d": ctypes.c_double, "c": ctypes.c_int}
+    for name, letters, restype in (
+        ("fm_assign", "iiipppcpppppdppppp", ctypes.c_int64),
+        ("fm_cluster_sums", "iiippppp", None),
+        ("fm_force_sums", "iiippppppddcpp", ctypes.c_double),
+    ):
+        function = getattr(lib, name)
+        function.argtypes = [kinds[k] for k in letters]
+        function.restype = restype
     return lib
 
 

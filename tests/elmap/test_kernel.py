@@ -134,3 +134,18 @@ def test_compiled_sums_match_the_numpy_ones(lib):
 def test_numpy_env_switches_the_compiled_loops_off(monkeypatch):
     monkeypatch.setenv(NUMPY_ENV, "1")
     assert load_em_kernel() is None
+
+
+def test_a_stale_build_falls_back_to_numpy_with_a_warning(lib, monkeypatch):
+    """A library built from another version of the C source is refused, not called with wrong arguments."""
+    from lerobot_forcemap.elmap import kernel
+
+    monkeypatch.setattr(kernel, "ABI_VERSION", kernel.ABI_VERSION + 1)
+    kernel._library.cache_clear()
+    try:
+        with pytest.warns(UserWarning, match="another version of _emkernel.c"):
+            assert load_em_kernel() is None
+    finally:
+        monkeypatch.undo()
+        kernel._library.cache_clear()
+    assert load_em_kernel() is not None
