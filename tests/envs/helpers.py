@@ -1,6 +1,34 @@
-"""Checks shared by the env tests."""
+"""Checks and rollouts shared by the env tests."""
 
 import numpy as np
+
+import lerobot_forcemap.envs as E
+from lerobot_forcemap.envs.demonstrators import make_demonstrator, run_episode
+
+
+def roll_demos(task: str, seeds, **env_kwargs) -> list[dict]:
+    """One scripted demonstration per seed (demonstrator seeded 10000 + seed): info, frame count,
+    actions, wrist force, per-finger forces (3, 3) when the robot has them, phases and parameters."""
+    env = E.make(task, **env_kwargs)
+    names = env.unwrapped.state_names["environment_state"]
+    out = []
+    for seed in seeds:
+        demo = make_demonstrator(task, np.random.default_rng(10_000 + seed), state_names=names)
+        frames, info = run_episode(env, demo, seed)
+        record = {
+            "seed": seed,
+            "info": info,
+            "n": len(frames),
+            "actions": np.array([f[1] for f in frames]),
+            "force": np.array([f[0]["force"] for f in frames]),
+            "phase": np.array([demo.phases[f[2]] for f in frames]),
+            "params": demo.describe(),
+        }
+        if "finger_force" in frames[0][0]:
+            record["finger"] = np.array([f[0]["finger_force"] for f in frames]).reshape(len(frames), 3, 3)
+        out.append(record)
+    env.close()
+    return out
 
 
 def assert_seed_determinism(env, seed: int, steps: int = 10) -> None:

@@ -49,7 +49,7 @@ def test_peg_demonstrations_bump_the_peg(demo_rollouts):
 
 
 def test_demonstrators_are_seeded(demo_rollouts):
-    from .conftest import roll_demos
+    from .helpers import roll_demos
 
     again = roll_demos("press", [3])[0]
     first = demo_rollouts("press")[3]

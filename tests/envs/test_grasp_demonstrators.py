@@ -4,35 +4,17 @@ and the same demonstrator on the unseen objects."""
 import numpy as np
 import pytest
 
-import lerobot_forcemap.envs as E
-from lerobot_forcemap.envs.demonstrators import make_demonstrator, run_episode
 from lerobot_forcemap.envs.registration import task_entry
 from lerobot_forcemap.envs.tasks.grasping import GRASP_OBJECTS, GraspTask
+
+from .helpers import roll_demos
 
 N_SEEDS = 20
 DEMO_OBJECTS = {"grasp_push": "book", "grasp_flip": "carton"}
 
 
 def roll(task: str, seeds, obj: str | None = None) -> list[dict]:
-    env = E.make(task, **({} if obj is None else {"object": obj}))
-    names = env.unwrapped.state_names["environment_state"]
-    out = []
-    for seed in seeds:
-        demo = make_demonstrator(task, np.random.default_rng(10_000 + seed), state_names=names)
-        frames, info = run_episode(env, demo, seed)
-        out.append(
-            {
-                "seed": seed,
-                "info": info,
-                "n": len(frames),
-                "actions": np.array([f[1] for f in frames]),
-                "finger": np.array([f[0]["finger_force"] for f in frames]).reshape(len(frames), 3, 3),
-                "phase": np.array([demo.phases[f[2]] for f in frames]),
-                "params": demo.describe(),
-            }
-        )
-    env.close()
-    return out
+    return roll_demos(task, seeds, **({} if obj is None else {"object": obj}))
 
 
 @pytest.fixture(scope="module")
