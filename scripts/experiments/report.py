@@ -357,6 +357,16 @@ def _plt():
     return plt
 
 
+def _save(fig, path: Path, drawn: bool = True) -> Path | None:
+    """Write the figure (None, and nothing written, when nothing was drawn) and close it."""
+    plt = _plt()
+    if drawn:
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path if drawn else None
+
+
 def _trace_of(cells, experiment: str, task: str, method: str):
     for c in cells:
         if c.experiment == experiment and c.task == task and c.method == method:
@@ -431,10 +441,7 @@ def plot_force_profiles(cells, path: Path, demo_episode: int = 0) -> Path | None
         f"Contact force, demonstration {demo_episode} vs its reproductions (first evaluation seed; physics-rate filtered force sampled at 20 Hz)",
         fontsize=11,
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def plot_paths(cells, path: Path, demo_episode: int = 0) -> Path | None:
@@ -480,13 +487,7 @@ def plot_paths(cells, path: Path, demo_episode: int = 0) -> Path | None:
             ax.axhline(0, color="0.7", lw=0.8)
             ax.set_title(f"{task}: height (in contact, ours lifts the target)", fontsize=10)
         ax.legend(fontsize=7)
-    if not drawn:
-        plt.close(fig)
-        return None
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, drawn)
 
 
 def plot_table2(records: list[dict[str, Any]], path: Path) -> Path | None:
@@ -527,13 +528,7 @@ def plot_table2(records: list[dict[str, Any]], path: Path) -> Path | None:
         ax.set_ylabel("% change vs own demonstration")
         ax.set_title(f"{task}: force change per method (dots: the 10 demonstrations)", fontsize=10)
         ax.legend(fontsize=7)
-    if not drawn:
-        plt.close(fig)
-        return None
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, drawn)
 
 
 def plot_peg(records: list[dict[str, Any]], path: Path) -> Path | None:
@@ -559,10 +554,7 @@ def plot_peg(records: list[dict[str, Any]], path: Path) -> Path | None:
         ax.set_ylabel("N")
         ax.set_title(f"peg_in_hole: {title} |F| per axis (mean ± std over episodes)", fontsize=10)
         ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 # ---- document ---------------------------------------------------------------------------------------------------
