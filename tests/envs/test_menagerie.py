@@ -1,7 +1,8 @@
-"""The optional Menagerie path, against a Menagerie-style folder written from our own arm.
+"""The optional Menagerie path, against Menagerie-style folders written from our own arms.
 
 The real mujoco_menagerie files are not downloaded in tests; this checks the adaptation (servos and
-keyframes removed, joints and flange renamed, base rotated 180 degrees) and that a task runs on it.
+keyframes removed, joints, root body and flange renamed, the UR5e base rotated 180 degrees, the Gen3
+drive model restored) and that tasks run on the adapted arms.
 """
 
 import math
@@ -10,8 +11,15 @@ import mujoco
 import numpy as np
 import pytest
 
-from lerobot_forcemap.envs.robots.menagerie import MENAGERIE_ENV, build_menagerie_ur5e_arm
+from lerobot_forcemap.envs.robots.gen3 import build_gen3_arm
+from lerobot_forcemap.envs.robots.menagerie import (
+    MENAGERIE_ENV,
+    build_menagerie_gen3_arm,
+    build_menagerie_ur5e_arm,
+)
 from lerobot_forcemap.envs.robots.ur5e import build_ur5e_arm
+
+from .helpers import roll_demos
 
 
 @pytest.fixture()
@@ -58,3 +66,49 @@ def test_missing_root_is_a_clear_error(monkeypatch):
     monkeypatch.delenv(MENAGERIE_ENV, raising=False)
     with pytest.raises(ValueError, match=MENAGERIE_ENV):
         build_menagerie_ur5e_arm()
+
+
+@pytest.fixture()
+def fake_gen3_menagerie(tmp_path, monkeypatch):
+    """Our Gen3 arm written the way Menagerie's kinova_gen3/gen3.xml names it: root body
+    ``base_link``, tool site ``pinch_site``, joints without damping or springs, servos and keyframes."""
+    spec = build_gen3_arm()
+    spec.body("base").name = "base_link"
+    spec.site("flange").name = "pinch_site"
+    for j in spec.joints:
+        j.armature = j.springref = 0.0
+        j.damping = j.stiffness = [0.0, 0.0, 0.0]
+        act = spec.add_actuator(name=j.name, target=j.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        act.set_to_position(kp=2000, kv=100)
+    spec.add_key(name="home", qpos=[0.0] * 7)
+    folder = tmp_path / "kinova_gen3"
+    folder.mkdir()
+    (folder / "gen3.xml").write_text(spec.to_xml())
+    monkeypatch.setenv(MENAGERIE_ENV, str(tmp_path))
+    return tmp_path
+
+
+def test_menagerie_gen3_arm_is_adapted_with_the_drive_model(fake_gen3_menagerie):
+    model = build_menagerie_gen3_arm().compile()
+    ref = build_gen3_arm().compile()
+    assert model.nu == 0 and model.nkey == 0
+    assert model.body("base").id == 1 and model.site("flange").id >= 0
+    # the null-space drive (armature, damping, posture springs at home) is restored on Menagerie's bare joints
+    for field in ("dof_armature", "dof_damping", "jnt_stiffness", "qpos_spring"):
+        np.testing.assert_array_equal(getattr(model, field), getattr(ref, field))
+    assert all(model.body_gravcomp[i] == 1 for i in range(2, model.nbody))
+
+
+def test_grasp_demonstration_runs_on_the_menagerie_gen3(fake_gen3_menagerie):
+    [menagerie] = roll_demos("grasp_push", [0], robot="gen3_menagerie")
+    [primitive] = roll_demos("grasp_push", [0])
+    assert menagerie["info"]["is_success"] and not menagerie["info"]["protective_stop"]
+    # the same arm under another name: the same motion to float precision of the XML round trip
+    assert menagerie["n"] == primitive["n"]
+    np.testing.assert_allclose(menagerie["actions"], primitive["actions"], atol=1e-6)
+
+
+@pytest.mark.parametrize("build", [build_menagerie_ur5e_arm, build_menagerie_gen3_arm])
+def test_missing_menagerie_file_names_the_robot_and_path(build, tmp_path):
+    with pytest.raises(ValueError, match=r"menagerie'.*not found"):
+        build(tmp_path)

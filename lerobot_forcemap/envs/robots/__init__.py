@@ -37,12 +37,13 @@ def get_robot(name: str) -> RobotSpec:
 
 def _load_builtin() -> None:
     from .gen3 import GEN3
-    from .menagerie import UR5E_MENAGERIE
+    from .menagerie import GEN3_MENAGERIE, UR5E_MENAGERIE
     from .ur5e import UR5E
 
     register_robot(UR5E)
     register_robot(UR5E_MENAGERIE)  # built only when used; needs MENAGERIE_ROOT
     register_robot(GEN3)
+    register_robot(GEN3_MENAGERIE)  # likewise
 
 
 __all__ = [

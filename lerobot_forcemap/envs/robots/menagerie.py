@@ -1,31 +1,42 @@
-"""Optional: the UR5e arm from a local MuJoCo Menagerie copy (meshes) instead of primitives.
+"""Optional: the UR5e and Gen3 arms from a local MuJoCo Menagerie copy (meshes) instead of primitives.
 
 Nothing is downloaded: set ``MENAGERIE_ROOT`` to a folder laid out like ``mujoco_menagerie`` (with
-``universal_robots_ur5e/ur5e.xml``) and make an env with ``robot="ur5e_menagerie"``. The Menagerie
-arm is adapted to the RobotSpec contract (``robots/base.py``): its position servos and keyframes are
-removed (the scene adds the Cartesian impedance actuators), joints renamed to
-``layout.UR5E_JOINT_NAMES``, ``attachment_site`` becomes ``flange``, bodies get ``gravcomp = 1`` and
-collision geoms the robot collision masks. Menagerie's UR5e base is rotated by 180 degrees about z
-(``quat="0 0 0 -1"``), hence the home configuration with the first joint shifted by pi. Rendering with
-the full meshes costs tens of ms per frame (the primitive model: 1-8 ms).
+``universal_robots_ur5e/ur5e.xml`` and/or ``kinova_gen3/gen3.xml``) and make an env with
+``robot="ur5e_menagerie"`` or ``robot="gen3_menagerie"``. A Menagerie arm is adapted to the RobotSpec
+contract (``robots/base.py``) by :func:`load_menagerie_arm`: its position servos and keyframes are
+removed (the scene adds the Cartesian impedance actuators), joints renamed to our names, the root body
+becomes ``base`` and the tool site ``flange``, bodies get ``gravcomp = 1`` and collision geoms the
+robot collision masks. Rendering with the full meshes costs tens of ms per frame (the primitive
+models: 1-8 ms).
+
+* UR5e: Menagerie's base is rotated by 180 degrees about z (``quat="0 0 0 -1"``), hence the home
+  configuration with the first joint shifted by pi; its joints keep Menagerie's armature and damping.
+* Gen3: Menagerie's chain has the same joint origins as ``gen3.py`` (Kinova's kortex_description), so
+  the home configuration is the same. Its joints carry no damping and no posture springs, and the
+  impedance controller acts on the 6-D TCP only, so the drive model of ``gen3.py`` (armature, damping,
+  posture springs at the home configuration that hold the 7th, elbow-swivel, DoF) is set on them.
 """
 
 from __future__ import annotations
 
 import math
 import os
+from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 
 import mujoco
 
 from ...layout import UR5E_JOINT_NAMES
-from .base import ROBOT_CONAFFINITY, ROBOT_CONTYPE, RobotSpec
-from .parallel_gripper import PARALLEL_GRIPPER
-from .ur5e import HOME_QPOS
+from . import gen3
+from .base import ROBOT_CONAFFINITY, ROBOT_CONTYPE
+from .ur5e import UR5E
 
 MENAGERIE_ENV = "MENAGERIE_ROOT"
 UR5E_XML = Path("universal_robots_ur5e") / "ur5e.xml"
-MENAGERIE_JOINTS = {f"{name}_joint": name for name in UR5E_JOINT_NAMES}
+GEN3_XML = Path("kinova_gen3") / "gen3.xml"
+UR5E_MENAGERIE_JOINTS = {f"{name}_joint": name for name in UR5E_JOINT_NAMES}
+GEN3_MENAGERIE_JOINTS = {name: name for name in gen3.JOINT_NAMES}
 
 
 def menagerie_root() -> Path | None:
@@ -33,13 +44,26 @@ def menagerie_root() -> Path | None:
     return Path(value) if value else None
 
 
-def build_menagerie_ur5e_arm(root: str | Path | None = None) -> mujoco.MjSpec:
+def load_menagerie_arm(
+    robot: str,
+    xml: Path,
+    *,
+    joints: Mapping[str, str],
+    base: str,
+    flange: str,
+    root: str | Path | None = None,
+) -> mujoco.MjSpec:
+    """Load ``root / xml`` and adapt it to the RobotSpec contract (see the module docstring).
+
+    ``joints`` maps Menagerie joint names to ours, ``base`` names Menagerie's root body and ``flange``
+    its tool-flange site. Missing files or elements raise ``ValueError`` naming the robot and path.
+    """
     root = Path(root) if root is not None else menagerie_root()
     if root is None:
-        raise ValueError(f"robot 'ur5e_menagerie' needs {MENAGERIE_ENV} set to a local mujoco_menagerie copy")
-    path = root / UR5E_XML
+        raise ValueError(f"robot {robot!r} needs {MENAGERIE_ENV} set to a local mujoco_menagerie copy")
+    path = root / xml
     if not path.is_file():
-        raise ValueError(f"{MENAGERIE_ENV}={root}: {UR5E_XML} not found")
+        raise ValueError(f"robot {robot!r}: {MENAGERIE_ENV}={root}: {xml} not found")
     spec = mujoco.MjSpec.from_file(str(path))
     for actuator in list(spec.actuators):
         spec.delete(actuator)
@@ -47,19 +71,19 @@ def build_menagerie_ur5e_arm(root: str | Path | None = None) -> mujoco.MjSpec:
         spec.delete(key)
     spec.nkey = 0  # a <size nkey=...> would otherwise keep empty keyframes of the arm's old nq
     for joint in spec.joints:
-        if joint.name in MENAGERIE_JOINTS:
-            joint.name = MENAGERIE_JOINTS[joint.name]
-    missing = [j for j in UR5E_JOINT_NAMES if spec.joint(j) is None]
+        if joint.name in joints:
+            joint.name = joints[joint.name]
+    missing = [ours for ours in joints.values() if spec.joint(ours) is None]
     if missing:
-        raise ValueError(
-            f"{path}: joints {missing} not found (expected Menagerie names {sorted(MENAGERIE_JOINTS)})"
-        )
-    site = spec.site("attachment_site")
+        raise ValueError(f"{path}: joints {missing} not found (expected Menagerie names {sorted(joints)})")
+    site = spec.site(flange)
     if site is None:
-        raise ValueError(f"{path}: no site 'attachment_site' (the tool flange)")
+        raise ValueError(f"{path}: no site {flange!r} (the tool flange)")
     site.name = "flange"
-    if spec.body("base") is None:
-        raise ValueError(f"{path}: no body 'base'")
+    root_body = spec.body(base)
+    if root_body is None:
+        raise ValueError(f"{path}: no body {base!r} (the arm's root)")
+    root_body.name = "base"
     for body in spec.bodies:
         if body.name not in ("world", "base"):
             body.gravcomp = 1.0
@@ -69,10 +93,42 @@ def build_menagerie_ur5e_arm(root: str | Path | None = None) -> mujoco.MjSpec:
     return spec
 
 
-UR5E_MENAGERIE = RobotSpec(
+def build_menagerie_ur5e_arm(root: str | Path | None = None) -> mujoco.MjSpec:
+    return load_menagerie_arm(
+        "ur5e_menagerie",
+        UR5E_XML,
+        joints=UR5E_MENAGERIE_JOINTS,
+        base="base",
+        flange="attachment_site",
+        root=root,
+    )
+
+
+def build_menagerie_gen3_arm(root: str | Path | None = None) -> mujoco.MjSpec:
+    spec = load_menagerie_arm(
+        "gen3_menagerie",
+        GEN3_XML,
+        joints=GEN3_MENAGERIE_JOINTS,
+        base="base_link",
+        flange="pinch_site",
+        root=root,
+    )
+    for i, name in enumerate(gen3.JOINT_NAMES):
+        joint = spec.joint(name)
+        joint.armature = gen3.ARMATURE[i]
+        # MuJoCo 4 joint damping and stiffness are polynomial coefficients (linear term first)
+        joint.damping = [gen3.DAMPING[i], 0.0, 0.0]
+        joint.stiffness = [gen3.POSTURE_STIFFNESS[i], 0.0, 0.0]
+        joint.springref = float(gen3.HOME_QPOS[i])
+    return spec
+
+
+# Same gripper, gains and F/T sensor as the primitive robots; only the arm (and for the UR5e the home
+# configuration) differs.
+UR5E_MENAGERIE = replace(
+    UR5E,
     name="ur5e_menagerie",
     build_arm=build_menagerie_ur5e_arm,
-    joint_names=UR5E_JOINT_NAMES,
-    gripper=PARALLEL_GRIPPER,
-    home_qpos=(HOME_QPOS[0] - math.pi, *HOME_QPOS[1:]),
+    home_qpos=(UR5E.home_qpos[0] - math.pi, *UR5E.home_qpos[1:]),
 )
+GEN3_MENAGERIE = replace(gen3.GEN3, name="gen3_menagerie", build_arm=build_menagerie_gen3_arm)
