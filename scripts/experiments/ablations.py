@@ -20,7 +20,7 @@ import json
 from typing import Any
 
 from cells import Cell
-from common import REPO, WEIGHTINGS, Settings, split_jobs
+from common import REPO, WEIGHTINGS, Settings, make_jobs
 from force_reduction import _overrides
 
 from lerobot_forcemap.experiments.paper import Job, auto_stream_weights
@@ -55,13 +55,15 @@ def cells(tuning: dict[str, dict[str, Any]], s: Settings) -> list[Cell]:
         for method, label, extra in variants:
             ov = (*base, *extra)
             out.append(
-                Cell("ablation", task, method, label, split_jobs(task, method, "forcemap", s.demos, s.eval_seeds, overrides=ov),
+                Cell("ablation", task, method, label, make_jobs(task, method, "forcemap", s.demos, s.eval_seeds, design="split", overrides=ov),
                      settings={"overrides": list(ov)}, design="split")
             )  # fmt: skip
         # auto weights: computed per demonstration, so one job per demonstration with its own weights
         jobs = []
         auto: dict[int, dict[str, float]] = {}
-        for job in split_jobs(task, "seg_auto", "forcemap", s.demos, s.eval_seeds, overrides=base):
+        for job in make_jobs(
+            task, "seg_auto", "forcemap", s.demos, s.eval_seeds, design="split", overrides=base
+        ):
             w = auto_stream_weights(REPO / "datasets" / task, job.demo, base)
             auto[job.demo] = {k: round(v, 3) for k, v in w.items()}
             jobs.append(

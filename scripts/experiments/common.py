@@ -123,18 +123,27 @@ def hybrid_kwargs(threshold: float, normal: str) -> dict[str, Any]:
     return out
 
 
-def _jobs(
+DESIGNS = ("full", "split")
+
+
+def make_jobs(
     task: str,
     method: str,
     kind: str,
-    seeds_by_demo: dict[int, tuple[int, ...]],
+    demos: tuple[int, ...],
+    seeds: tuple[int, ...],
     *,
-    overrides: tuple[str, ...],
-    hybrid: dict[str, Any] | None,
-    env_kwargs: dict[str, Any] | None,
-    trace_demo: int | None,
+    design: str = "full",
+    overrides: tuple[str, ...] = (),
+    hybrid: dict[str, Any] | None = None,
+    env_kwargs: dict[str, Any] | None = None,
+    trace_demo: int | None = None,
 ) -> list[Job]:
-    """One job per demonstration, running it on its seeds."""
+    """One job per demonstration. ``design="full"``: every demonstration on every seed;
+    ``"split"``: the seeds dealt round-robin over the demonstrations (n = len(seeds))."""
+    if design not in DESIGNS:
+        raise ValueError(f"design: expected one of {DESIGNS}, got {design!r}")
+    seeds_by_demo = {d: tuple(seeds) for d in demos} if design == "full" else split_seeds(seeds, demos)
     return [
         Job(
             task,
@@ -149,56 +158,6 @@ def _jobs(
         )
         for d, s in seeds_by_demo.items()
     ]
-
-
-def full_jobs(
-    task: str,
-    method: str,
-    kind: str,
-    demos: tuple[int, ...],
-    seeds: tuple[int, ...],
-    *,
-    overrides: tuple[str, ...] = (),
-    hybrid: dict[str, Any] | None = None,
-    env_kwargs: dict[str, Any] | None = None,
-    trace_demo: int | None = None,
-) -> list[Job]:
-    """Every demonstration on every seed (one job per demonstration)."""
-    return _jobs(
-        task,
-        method,
-        kind,
-        {d: tuple(seeds) for d in demos},
-        overrides=overrides,
-        hybrid=hybrid,
-        env_kwargs=env_kwargs,
-        trace_demo=trace_demo,
-    )
-
-
-def split_jobs(
-    task: str,
-    method: str,
-    kind: str,
-    demos: tuple[int, ...],
-    seeds: tuple[int, ...],
-    *,
-    overrides: tuple[str, ...] = (),
-    hybrid: dict[str, Any] | None = None,
-    env_kwargs: dict[str, Any] | None = None,
-    trace_demo: int | None = None,
-) -> list[Job]:
-    """The seeds dealt round-robin over the demonstrations (n = len(seeds))."""
-    return _jobs(
-        task,
-        method,
-        kind,
-        split_seeds(seeds, demos),
-        overrides=overrides,
-        hybrid=hybrid,
-        env_kwargs=env_kwargs,
-        trace_demo=trace_demo,
-    )
 
 
 def fmt_overrides(overrides: tuple[str, ...] | list[str]) -> str:

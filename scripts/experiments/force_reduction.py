@@ -18,7 +18,7 @@ from __future__ import annotations
 from typing import Any
 
 from cells import Cell
-from common import TABLE2_HYBRID, Settings, full_jobs, split_jobs
+from common import TABLE2_HYBRID, Settings, make_jobs
 
 TASKS = ("press", "erase")
 #: rows run in the ``full`` design (the others ``split``)
@@ -52,15 +52,21 @@ def cells(tuning: dict[str, dict[str, Any]], s: Settings) -> list[Cell]:
         ]
         for method, label, ov in variants:
             design = "full" if method in FULL_ROWS[task] else "split"
-            make = full_jobs if design == "full" else split_jobs
             out.append(
                 Cell(
                     "table2",
                     task,
                     method,
                     label,
-                    make(
-                        task, method, "forcemap", s.demos, s.eval_seeds, overrides=ov, trace_demo=s.demos[0]
+                    make_jobs(
+                        task,
+                        method,
+                        "forcemap",
+                        s.demos,
+                        s.eval_seeds,
+                        design=design,
+                        overrides=ov,
+                        trace_demo=s.demos[0],
                     ),
                     settings={"overrides": list(ov)},
                     design=design,
@@ -68,14 +74,22 @@ def cells(tuning: dict[str, dict[str, Any]], s: Settings) -> list[Cell]:
             )
         hy = TABLE2_HYBRID[task]
         design = "full" if "hybrid" in FULL_ROWS[task] else "split"
-        make = full_jobs if design == "full" else split_jobs
         out.append(
             Cell(
                 "table2",
                 task,
                 "hybrid",
                 f"hybrid force/position control (threshold {hy['force_threshold']:g} N)",
-                make(task, "hybrid", "hybrid", s.demos, s.eval_seeds, hybrid=hy, trace_demo=s.demos[0]),
+                make_jobs(
+                    task,
+                    "hybrid",
+                    "hybrid",
+                    s.demos,
+                    s.eval_seeds,
+                    design=design,
+                    hybrid=hy,
+                    trace_demo=s.demos[0],
+                ),
                 settings={"hybrid": hy},
                 design=design,
             )

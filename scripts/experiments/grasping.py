@@ -15,7 +15,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from cells import Cell
-from common import GRASP_OVERRIDES, GRASP_TASKS, REPO, Settings, split_jobs
+from common import GRASP_OVERRIDES, GRASP_TASKS, REPO, Settings, make_jobs
 
 TASKS = tuple(GRASP_TASKS)
 
@@ -48,12 +48,13 @@ def cells(s: Settings) -> list[Cell]:
                         task,
                         method,
                         label,
-                        split_jobs(
+                        make_jobs(
                             task,
                             method,
                             kind,
                             s.demos,
                             s.eval_seeds,
+                            design="split",
                             overrides=ov or (),
                             env_kwargs=env,
                             trace_demo=s.demos[0] if method == "ours" else None,

@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import Any
 
 from cells import Cell
-from common import Settings, full_jobs, hybrid_kwargs, split_jobs
+from common import Settings, hybrid_kwargs, make_jobs
 
 
 def cells(tuning: dict[str, Any], s: Settings) -> list[Cell]:
@@ -29,23 +29,25 @@ def cells(tuning: dict[str, Any], s: Settings) -> list[Cell]:
     return [
         Cell(
             "peg", task, "replay", "demonstration replayed open loop (re-anchored to the peg)",
-            split_jobs(task, "replay", "replay", s.demos, s.eval_seeds, trace_demo=s.demos[0]),
+            make_jobs(task, "replay", "replay", s.demos, s.eval_seeds, design="split", trace_demo=s.demos[0]),
             settings={}, design="split",
         ),
         Cell(
             "peg", task, "hybrid",
             f"hybrid force/position control (threshold {h['force_threshold']:g} N, normal {h['normal']})",
-            full_jobs(task, "hybrid", "hybrid", s.demos, s.eval_seeds, hybrid=hy, trace_demo=s.demos[0]),
+            make_jobs(task, "hybrid", "hybrid", s.demos, s.eval_seeds, hybrid=hy, trace_demo=s.demos[0]),
             settings={"hybrid": {**h}},
         ),
         Cell(
             "peg", task, "ours", f"ours (force_limit = {o['force_limit']:g} N = the hybrid threshold; tuned k = {o['stiffness']:g} N/m, f_contact = {o['f_contact']:g} N)",
-            full_jobs(task, "ours", "forcemap", s.demos, s.eval_seeds, overrides=ov, trace_demo=s.demos[0]),
+            make_jobs(task, "ours", "forcemap", s.demos, s.eval_seeds, overrides=ov, trace_demo=s.demos[0]),
             settings={"overrides": list(ov)},
         ),
         Cell(
             "peg", task, "ours_default", "ours, package defaults (no force limit)",
-            split_jobs(task, "ours_default", "forcemap", s.demos, s.eval_seeds, trace_demo=s.demos[0]),
+            make_jobs(
+                task, "ours_default", "forcemap", s.demos, s.eval_seeds, design="split", trace_demo=s.demos[0]
+            ),
             settings={"overrides": []}, design="split",
         ),
     ]  # fmt: skip

@@ -30,7 +30,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from common import CONTACT_STIFFNESS, Settings, full_jobs, hybrid_kwargs
+from common import CONTACT_STIFFNESS, Settings, hybrid_kwargs, make_jobs
 
 from lerobot_forcemap.experiments.paper import demo_change, demo_force_records, run_jobs
 
@@ -93,7 +93,7 @@ class _Batch:
 
     def add(self, name: str, task: str, kind: str, overrides=(), hybrid=None) -> None:
         s = self.s
-        self.jobs[name] = full_jobs(
+        self.jobs[name] = make_jobs(
             task, f"tune_{name}", kind, s.tune_demos, s.tune_seeds, overrides=overrides, hybrid=hybrid
         )
 
