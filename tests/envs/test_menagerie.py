@@ -13,13 +13,24 @@ import pytest
 
 from lerobot_forcemap.envs.robots.gen3 import build_gen3_arm
 from lerobot_forcemap.envs.robots.menagerie import (
+    GEN3_XML,
     MENAGERIE_ENV,
+    UR5E_XML,
     build_menagerie_gen3_arm,
     build_menagerie_ur5e_arm,
 )
 from lerobot_forcemap.envs.robots.ur5e import build_ur5e_arm
 
 from .helpers import roll_demos
+
+
+def _write_menagerie(spec: mujoco.MjSpec, path, monkeypatch):
+    """Write ``spec`` as a Menagerie model file at ``MENAGERIE_ROOT / <robot folder> / <file>``."""
+    path.parent.mkdir(parents=True)
+    path.write_text(spec.to_xml())
+    root = path.parents[1]
+    monkeypatch.setenv(MENAGERIE_ENV, str(root))
+    return root
 
 
 @pytest.fixture()
@@ -33,11 +44,7 @@ def fake_menagerie(tmp_path, monkeypatch):
         act = spec.add_actuator(name=j.replace("_joint", ""), target=j, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         act.set_to_position(kp=2000, kv=400)
     spec.add_key(name="home", qpos=[0.0] * 6)
-    folder = tmp_path / "universal_robots_ur5e"
-    folder.mkdir()
-    (folder / "ur5e.xml").write_text(spec.to_xml())
-    monkeypatch.setenv(MENAGERIE_ENV, str(tmp_path))
-    return tmp_path
+    return _write_menagerie(spec, tmp_path / UR5E_XML, monkeypatch)
 
 
 def test_menagerie_arm_is_adapted(fake_menagerie):
@@ -81,11 +88,7 @@ def fake_gen3_menagerie(tmp_path, monkeypatch):
         act = spec.add_actuator(name=j.name, target=j.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         act.set_to_position(kp=2000, kv=100)
     spec.add_key(name="home", qpos=[0.0] * 7)
-    folder = tmp_path / "kinova_gen3"
-    folder.mkdir()
-    (folder / "gen3.xml").write_text(spec.to_xml())
-    monkeypatch.setenv(MENAGERIE_ENV, str(tmp_path))
-    return tmp_path
+    return _write_menagerie(spec, tmp_path / GEN3_XML, monkeypatch)
 
 
 def test_menagerie_gen3_arm_is_adapted_with_the_drive_model(fake_gen3_menagerie):
