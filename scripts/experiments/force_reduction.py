@@ -38,6 +38,15 @@ def _overrides(params: dict[str, Any] | None) -> tuple[str, ...]:
     )
 
 
+def _cell(task: str, method: str, label: str, kind: str, s: Settings, settings: dict, **job_kwargs) -> Cell:
+    """A Table II row: ``full`` design for the rows in ``FULL_ROWS``, else ``split``."""
+    design = "full" if method in FULL_ROWS[task] else "split"
+    jobs = make_jobs(
+        task, method, kind, s.demos, s.eval_seeds, design=design, trace_demo=s.demos[0], **job_kwargs
+    )
+    return Cell("table2", task, method, label, jobs, settings=settings, design=design)
+
+
 def cells(tuning: dict[str, dict[str, Any]], s: Settings) -> list[Cell]:
     out: list[Cell] = []
     for task in TASKS:
@@ -51,47 +60,8 @@ def cells(tuning: dict[str, dict[str, Any]], s: Settings) -> list[Cell]:
             ("limit_alone", f"ours, force_limit alone (tuned: {', '.join(la)})", la),
         ]
         for method, label, ov in variants:
-            design = "full" if method in FULL_ROWS[task] else "split"
-            out.append(
-                Cell(
-                    "table2",
-                    task,
-                    method,
-                    label,
-                    make_jobs(
-                        task,
-                        method,
-                        "forcemap",
-                        s.demos,
-                        s.eval_seeds,
-                        design=design,
-                        overrides=ov,
-                        trace_demo=s.demos[0],
-                    ),
-                    settings={"overrides": list(ov)},
-                    design=design,
-                )
-            )
+            out.append(_cell(task, method, label, "forcemap", s, {"overrides": list(ov)}, overrides=ov))
         hy = TABLE2_HYBRID[task]
-        design = "full" if "hybrid" in FULL_ROWS[task] else "split"
-        out.append(
-            Cell(
-                "table2",
-                task,
-                "hybrid",
-                f"hybrid force/position control (threshold {hy['force_threshold']:g} N)",
-                make_jobs(
-                    task,
-                    "hybrid",
-                    "hybrid",
-                    s.demos,
-                    s.eval_seeds,
-                    design=design,
-                    hybrid=hy,
-                    trace_demo=s.demos[0],
-                ),
-                settings={"hybrid": hy},
-                design=design,
-            )
-        )
+        label = f"hybrid force/position control (threshold {hy['force_threshold']:g} N)"
+        out.append(_cell(task, "hybrid", label, "hybrid", s, {"hybrid": hy}, hybrid=hy))
     return out
