@@ -2,6 +2,11 @@
 
 Each subcommand lives in its own module exposing ``add_arguments(parser)`` and ``run(args) -> int``;
 modules are imported only when their subcommand runs, so ``forcemap --help`` stays fast.
+
+:func:`main` raises what the subcommand raises (for callers and tests); the console script
+:func:`cli` prints bad input (``ValueError``, missing or existing files) as one
+``forcemap <command>: error: ...`` line with exit status 2, like argparse does for bad flags, and shows
+the traceback only with ``FORCEMAP_TRACEBACK=1``.
 """
 
 from __future__ import annotations
@@ -9,6 +14,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import sys
 
 # name -> (module, one-line help)
@@ -55,10 +61,15 @@ def quiet_torchcodec_warning() -> None:
         logger.addFilter(_CondenseTorchcodecWarning())
 
 
+def _command(argv: list[str]) -> str | None:
+    """The subcommand named on the command line (its first positional argument), if any."""
+    return next((a for a in argv if not a.startswith("-")), None)
+
+
 def build_parser(argv: list[str]) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="forcemap", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    chosen = next((a for a in argv if not a.startswith("-")), None)
+    chosen = _command(argv)
     for name, (module, help_text) in SUBCOMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
         if name == chosen:
@@ -74,5 +85,23 @@ def main(argv: list[str] | None = None) -> int:
     return int(module.run(args) or 0)
 
 
+#: exceptions that mean "bad input" (their messages name the argument, field, episode or frame)
+USER_ERRORS = (ValueError, FileNotFoundError, FileExistsError, NotADirectoryError, IsADirectoryError)
+TRACEBACK_ENV = "FORCEMAP_TRACEBACK"
+
+
+def cli(argv: list[str] | None = None) -> int:
+    """The ``forcemap`` console script: :func:`main` with bad input reported as one line, exit 2."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        return main(argv)
+    except USER_ERRORS as err:
+        if os.environ.get(TRACEBACK_ENV, "") not in ("", "0"):
+            raise
+        prog = f"forcemap {_command(argv)}"  # main() parsed argv, so a subcommand was named
+        print(f"{prog}: error: {err}\n(set {TRACEBACK_ENV}=1 for the traceback)", file=sys.stderr)
+        return 2
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(cli())

@@ -1,0 +1,41 @@
+"""The ``forcemap`` console script: bad input is one error line and exit status 2, not a traceback."""
+
+import os
+import subprocess
+import sys
+from importlib.metadata import entry_points
+
+import pytest
+
+from lerobot_forcemap.cli import TRACEBACK_ENV, cli
+
+
+def test_console_script_is_the_error_reporting_entry():
+    [script] = [e for e in entry_points(group="console_scripts") if e.name == "forcemap"]
+    assert script.value == "lerobot_forcemap.cli:cli"
+
+
+def test_bad_input_is_one_line_naming_the_command_and_argument(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv(TRACEBACK_ENV, raising=False)
+    assert cli(["fit", "--dataset", str(tmp_path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"forcemap fit: error: --dataset {tmp_path}: not a LeRobot dataset")
+    assert "Traceback" not in err and TRACEBACK_ENV in err
+
+
+def test_traceback_on_request(tmp_path, monkeypatch):
+    monkeypatch.setenv(TRACEBACK_ENV, "1")
+    with pytest.raises(ValueError, match="not a LeRobot dataset"):
+        cli(["fit", "--dataset", str(tmp_path), "--out", str(tmp_path / "o")])
+
+
+def test_python_dash_m_exits_2_without_a_traceback(tmp_path):
+    env = {k: v for k, v in os.environ.items() if k != TRACEBACK_ENV}
+    out = subprocess.run(
+        [sys.executable, "-m", "lerobot_forcemap.cli", "report", "--json", str(tmp_path / "missing.json"),
+         "--out", str(tmp_path / "r")],
+        capture_output=True, text=True, env=env, timeout=300,
+    )  # fmt: skip
+    assert out.returncode == 2, out.stderr
+    assert "forcemap report: error:" in out.stderr and "missing.json" in out.stderr
+    assert "Traceback" not in out.stderr
