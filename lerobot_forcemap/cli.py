@@ -13,9 +13,10 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import logging
 import os
 import sys
+
+from .lerobot_logs import quiet_torchcodec_warning
 
 # name -> (module, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
@@ -39,26 +40,6 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "push a dataset or a fitted policy to the Hugging Face Hub",
     ),
 }
-
-
-class _CondenseTorchcodecWarning(logging.Filter):
-    """LeRobot logs a page-long traceback when torchcodec finds no system FFmpeg and then falls back to
-    pyav; state-only datasets never decode video, so one line says enough."""
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        if str(record.msg).startswith("Could not load libtorchcodec"):
-            record.msg = (
-                "torchcodec could not load the system FFmpeg; LeRobot decodes videos with pyav instead"
-            )
-            record.args = ()
-        return True
-
-
-def quiet_torchcodec_warning() -> None:
-    """Install the one-line torchcodec note on LeRobot's import logger (idempotent)."""
-    logger = logging.getLogger("lerobot.utils.import_utils")
-    if not any(isinstance(f, _CondenseTorchcodecWarning) for f in logger.filters):
-        logger.addFilter(_CondenseTorchcodecWarning())
 
 
 def _command(argv: list[str]) -> str | None:

@@ -56,11 +56,13 @@ def main(argv=None) -> int:
     from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
 
     from lerobot_forcemap.experiments.fit import fit_policy, make_config
+    from lerobot_forcemap.lerobot_logs import quiet_torchcodec_warning
     from lerobot_policy_forcemap.episodes import load_episodes
     from lerobot_policy_forcemap.fitting import fit_skill
     from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
 
     t_import = time.perf_counter() - t_import
+    quiet_torchcodec_warning()
     tmp = Path(tempfile.mkdtemp(prefix="bench_policy_fit_"))
     fit_policy(dataset, tmp / "warmup", overwrite=True)  # warm-up: lazy imports, caches
 

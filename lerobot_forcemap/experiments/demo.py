@@ -16,10 +16,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import logging
 import sys
 import time
 from pathlib import Path
+
+from ..lerobot_logs import quiet_torchcodec_warning
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_DATASET = REPO_ROOT / "datasets" / "press"
@@ -54,9 +55,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         return 2
 
-    # LeRobot warns with a long traceback when torchcodec's FFmpeg libraries are missing and falls back
-    # to pyav; the press dataset has no videos, so the warning is noise here.
-    logging.getLogger("lerobot.utils.import_utils").setLevel(logging.ERROR)
+    quiet_torchcodec_warning()
     from .evaluate import evaluate_policy, evaluation_document
     from .fit import fit_policy
     from .report import make_report, markdown_table
