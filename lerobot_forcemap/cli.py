@@ -4,9 +4,10 @@ Each subcommand lives in its own module exposing ``add_arguments(parser)`` and `
 modules are imported only when their subcommand runs, so ``forcemap --help`` stays fast.
 
 :func:`main` raises what the subcommand raises (for callers and tests); the console script
-:func:`cli` prints bad input (``ValueError``, missing or existing files) as one
-``forcemap <command>: error: ...`` line with exit status 2, like argparse does for bad flags, and shows
-the traceback only with ``FORCEMAP_TRACEBACK=1``.
+:func:`cli` prints bad input (``ValueError``) and what the machine refused (``OSError``: a missing or
+existing file, an unreachable or offline Hub, no Hub token) as one ``forcemap <command>: error: ...``
+line with exit status 2, like argparse does for bad flags, and shows the traceback only with
+``FORCEMAP_TRACEBACK=1``.
 """
 
 from __future__ import annotations
@@ -66,8 +67,9 @@ def main(argv: list[str] | None = None) -> int:
     return int(module.run(args) or 0)
 
 
-#: exceptions that mean "bad input" (their messages name the argument, field, episode or frame)
-USER_ERRORS = (ValueError, FileNotFoundError, FileExistsError, NotADirectoryError, IsADirectoryError)
+#: bad input (messages name the argument, field, episode or frame) and refusals of the file system or
+#: the Hub (huggingface_hub's HTTP, offline-mode and missing-token errors are all OSErrors)
+USER_ERRORS = (ValueError, OSError)
 TRACEBACK_ENV = "FORCEMAP_TRACEBACK"
 
 

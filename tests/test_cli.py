@@ -4,6 +4,7 @@ import os
 import subprocess
 import sys
 from importlib.metadata import entry_points
+from pathlib import Path
 
 import pytest
 
@@ -39,3 +40,14 @@ def test_python_dash_m_exits_2_without_a_traceback(tmp_path):
     assert out.returncode == 2, out.stderr
     assert "forcemap report: error:" in out.stderr and "missing.json" in out.stderr
     assert "Traceback" not in out.stderr
+
+
+def test_an_offline_hub_is_one_line_too(capsys, monkeypatch):
+    import huggingface_hub.constants
+
+    monkeypatch.setattr(huggingface_hub.constants, "HF_HUB_OFFLINE", True)
+    monkeypatch.delenv(TRACEBACK_ENV, raising=False)
+    dataset = Path(__file__).resolve().parents[1] / "datasets" / "press"
+    assert cli(["push", "--dataset", str(dataset), "--repo-id", "someone/press-demos"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("forcemap push: error:") and "offline mode" in err
