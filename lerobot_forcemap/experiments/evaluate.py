@@ -88,6 +88,22 @@ def to_json(v: Any) -> Any:
     return v
 
 
+def episode_outcome(
+    seed: int, info: dict[str, Any], truncated: bool, steps: int, t0: float
+) -> dict[str, Any]:
+    """The head of an episode record from the env's last ``info``: seed, success, protective stop, why
+    it ended (the task's reason, else ``time_limit`` when truncated), steps and wall time since ``t0``
+    (a ``time.perf_counter()`` reading)."""
+    return {
+        "seed": int(seed),
+        "success": bool(info["is_success"]),
+        "protective_stop": bool(info["protective_stop"]),
+        "termination_reason": info.get("termination_reason") or ("time_limit" if truncated else ""),
+        "steps": steps,
+        "wall_s": time.perf_counter() - t0,
+    }
+
+
 def load_policy(path: str | Path, device: str = "cpu"):
     """(policy, preprocessor, postprocessor) of a checkpoint folder, as ``lerobot-eval`` builds them."""
     from lerobot.configs.policies import PreTrainedConfig
@@ -162,12 +178,7 @@ def rollout(
         if frames is not None:
             frames.append(env.render())
     record = {
-        "seed": int(seed),
-        "success": bool(info["is_success"]),
-        "protective_stop": bool(info["protective_stop"]),
-        "termination_reason": info.get("termination_reason") or ("time_limit" if truncated else ""),
-        "steps": steps,
-        "wall_s": time.perf_counter() - t0,
+        **episode_outcome(seed, info, truncated, steps, t0),
         **{k: to_json(info[k]) for k in FORCE_KEYS},
     }
     # task metrics: scalars and short vectors (e.g. per-finger max/mean forces); the per-step contact

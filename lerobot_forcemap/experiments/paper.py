@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lerobot_forcemap import layout
-from lerobot_forcemap.experiments.evaluate import to_json
+from lerobot_forcemap.experiments.evaluate import episode_outcome, to_json
 
 __all__ = [
     "EVAL_SEEDS",
@@ -283,14 +283,7 @@ def run_episode(
         obs, _, terminated, truncated, info = env.step(a.astype(np.float32))
         forces.append(np.asarray(info["contact_force"], dtype=np.float64))
         steps += 1
-    record: dict[str, Any] = {
-        "seed": int(seed),
-        "success": bool(info["is_success"]),
-        "protective_stop": bool(info["protective_stop"]),
-        "termination_reason": info.get("termination_reason") or ("time_limit" if truncated else ""),
-        "steps": steps,
-        "wall_s": time.perf_counter() - t0,
-    }
+    record = episode_outcome(seed, info, truncated, steps, t0)
     for k in (*FORCE_KEYS, *FINGER_KEYS):
         if k in info:
             record[k] = to_json(info[k])
