@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 
 import numpy as np
@@ -23,16 +22,9 @@ from lerobot_forcemap.experiments.learned import (
     train_command,
 )
 from tests.conftest import REPO_ROOT
+from tests.experiments.helpers import load_learned_baselines_script
 
 SHIPPED = REPO_ROOT / "datasets"
-
-
-def _script():
-    path = REPO_ROOT / "scripts" / "experiments" / "learned_baselines.py"
-    spec = importlib.util.spec_from_file_location("learned_baselines", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 # ---- extras and the processor step ---------------------------------------------------------------------
@@ -297,7 +289,7 @@ def test_result_document_schema_and_numbers():
 
 
 def test_script_parse_steps():
-    mod = _script()
+    mod = load_learned_baselines_script()
     assert mod.parse_steps(["300"], ["act", "diffusion"]) == {"act": 300, "diffusion": 300}
     assert mod.parse_steps(["act=5", "diffusion=7"], ["act", "diffusion"]) == {"act": 5, "diffusion": 7}
     with pytest.raises(ValueError, match="diffusion"):

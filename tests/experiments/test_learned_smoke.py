@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import REPO_ROOT
+from tests.experiments.helpers import load_learned_baselines_script
 
 pytestmark = pytest.mark.slow
 
@@ -24,21 +24,13 @@ KEYS = {
 }  # fmt: skip
 
 
-def _script():
-    path = REPO_ROOT / "scripts" / "experiments" / "learned_baselines.py"
-    spec = importlib.util.spec_from_file_location("learned_baselines", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 @pytest.fixture(scope="module")
 def smoke_run(tmp_path_factory):
     methods = ["act"] + (["diffusion"] if importlib.util.find_spec("diffusers") else [])
     root = tmp_path_factory.mktemp("learned_smoke")
     out, work = root / "out", root / "work"
     argv = ["--smoke", "--tasks", "press", "--methods", *methods, "--out", str(out), "--work", str(work)]
-    assert _script().main(argv) == 0
+    assert load_learned_baselines_script().main(argv) == 0
     return out, work, methods
 
 
@@ -64,7 +56,7 @@ def test_existing_results_are_skipped(smoke_run, capsys):
     out, work, methods = smoke_run
     before = {m: (out / f"press__{m}.json").stat().st_mtime_ns for m in methods}
     assert (
-        _script().main(
+        load_learned_baselines_script().main(
             ["--smoke", "--tasks", "press", "--methods", *methods, "--out", str(out), "--work", str(work)]
         )
         == 0
