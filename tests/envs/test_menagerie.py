@@ -1,11 +1,12 @@
 """The optional Menagerie path, against Menagerie-style folders written from our own arms.
 
 The real mujoco_menagerie files are not downloaded in tests; this checks the adaptation (servos and
-keyframes removed, joints, root body and flange renamed, the UR5e base rotated 180 degrees, the Gen3
-drive model restored) and that tasks run on the adapted arms.
+keyframes removed, joints, root body and flange renamed, the Gen3 drive model restored) and that tasks
+run on the adapted arms with the primitive arms' joint conventions. With ``MENAGERIE_ROOT`` set when
+pytest starts, the last test runs the scripted demonstrators on the real Menagerie arms too.
 """
 
-import math
+import os
 
 import mujoco
 import numpy as np
@@ -23,6 +24,8 @@ from lerobot_forcemap.envs.robots.ur5e import build_ur5e_arm
 
 from .helpers import roll_demos
 
+REAL_MENAGERIE = os.environ.get(MENAGERIE_ENV)  # read before any fixture patches it
+
 
 def _write_menagerie(spec: mujoco.MjSpec, path, monkeypatch):
     """Write ``spec`` as a Menagerie model file at ``MENAGERIE_ROOT / <robot folder> / <file>``."""
@@ -39,7 +42,10 @@ def fake_menagerie(tmp_path, monkeypatch):
     for j in spec.joints:
         j.name = f"{j.name}_joint"
     spec.site("flange").name = "attachment_site"
+    # as in Menagerie's ur5e.xml: the base turned by 180 degrees about z, the link frames turned back
+    # (the same joint angles give the same flange pose as the DH arm)
     spec.body("base").quat = [0, 0, 0, -1]
+    spec.body("link_1").quat = [0, 0, 0, 1]
     for j in ("shoulder_pan_joint", "elbow_joint"):
         act = spec.add_actuator(name=j.replace("_joint", ""), target=j, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         act.set_to_position(kp=2000, kv=400)
@@ -61,12 +67,14 @@ def test_task_runs_on_the_menagerie_arm(fake_menagerie):
     env = E.make("press", robot="ur5e_menagerie")
     obs, _ = env.reset(seed=0)
     assert env.unwrapped.state_names["agent_pos"][0] == "shoulder_pan"
-    # the same TCP start pose is reached with the first joint turned by pi (base rotated 180 degrees)
+    # the same start: TCP pose and joint configuration (elbow up; a wrong IK seed ends elbow-down with
+    # the forearm on the table)
     ref = E.make("press")
     obs_ref, _ = ref.reset(seed=0)
     np.testing.assert_allclose(obs["ee_pose"], obs_ref["ee_pose"], atol=1e-4)
-    assert abs(abs(obs["agent_pos"][0] - obs_ref["agent_pos"][0]) - math.pi) < 1e-3
-    obs, *_ = env.step(np.concatenate([obs["ee_pose"], [1.0]]))
+    np.testing.assert_allclose(obs["agent_pos"], obs_ref["agent_pos"], atol=1e-4)
+    [demo] = roll_demos("press", [0], robot="ur5e_menagerie")
+    assert demo["info"]["is_success"] and not demo["info"]["protective_stop"]
 
 
 def test_missing_root_is_a_clear_error(monkeypatch):
@@ -115,3 +123,15 @@ def test_grasp_demonstration_runs_on_the_menagerie_gen3(fake_gen3_menagerie):
 def test_missing_menagerie_file_names_the_robot_and_path(build, tmp_path):
     with pytest.raises(ValueError, match=r"menagerie'.*not found"):
         build(tmp_path)
+
+
+@pytest.mark.skipif(not REAL_MENAGERIE, reason=f"set {MENAGERIE_ENV} to a local mujoco_menagerie copy")
+@pytest.mark.parametrize(
+    "task, robot",
+    [("press", "ur5e_menagerie"), ("erase", "ur5e_menagerie"), ("peg_in_hole", "ur5e_menagerie"),
+     ("grasp_push", "gen3_menagerie"), ("grasp_flip", "gen3_menagerie")],
+)  # fmt: skip
+def test_demonstrators_succeed_on_the_real_menagerie_arms(task, robot, monkeypatch):
+    monkeypatch.setenv(MENAGERIE_ENV, REAL_MENAGERIE)
+    for demo in roll_demos(task, range(3), robot=robot):
+        assert demo["info"]["is_success"] and not demo["info"]["protective_stop"], (task, demo["seed"])

@@ -6,11 +6,15 @@ Nothing is downloaded: set ``MENAGERIE_ROOT`` to a folder laid out like ``mujoco
 contract (``robots/base.py``) by :func:`load_menagerie_arm`: its position servos and keyframes are
 removed (the scene adds the Cartesian impedance actuators), joints renamed to our names, the root body
 becomes ``base`` and the tool site ``flange``, bodies get ``gravcomp = 1`` and collision geoms the
-robot collision masks. Rendering with the full meshes costs tens of ms per frame (the primitive
-models: 1-8 ms).
+robot collision masks. Rendering a 256 px frame with the meshes: UR5e 10 ms, Gen3 5 ms (primitives:
+2 ms). Checked against a local copy (Menagerie's UR5e; its Gen3 XML with Kinova's STL meshes): the
+scripted demonstrators succeed in 20 of 20 seeds in every task on these arms.
 
-* UR5e: Menagerie's base is rotated by 180 degrees about z (``quat="0 0 0 -1"``), hence the home
-  configuration with the first joint shifted by pi; its joints keep Menagerie's armature and damping.
+* UR5e: Menagerie's base is rotated by 180 degrees about z (``quat="0 0 0 -1"``) and its link frames
+  differ from the DH frames of ``ur5e.py``, but the two cancel: the same joint angles put the flange at
+  the same pose as Universal Robots' DH convention (checked against a local Menagerie copy: orientation
+  equal, position within 0.5 mm, as Menagerie rounds d1 to 0.163 m), so the home configuration is the
+  same. Its joints keep Menagerie's armature and damping.
 * Gen3: Menagerie's chain has the same joint origins as ``gen3.py`` (Kinova's kortex_description), so
   the home configuration is the same. Its joints carry no damping and no posture springs, and the
   impedance controller acts on the 6-D TCP only, so the drive model of ``gen3.py`` (armature, damping,
@@ -19,7 +23,6 @@ models: 1-8 ms).
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Mapping
 from dataclasses import replace
@@ -123,12 +126,7 @@ def build_menagerie_gen3_arm(root: str | Path | None = None) -> mujoco.MjSpec:
     return spec
 
 
-# Same gripper, gains and F/T sensor as the primitive robots; only the arm (and for the UR5e the home
-# configuration) differs.
-UR5E_MENAGERIE = replace(
-    UR5E,
-    name="ur5e_menagerie",
-    build_arm=build_menagerie_ur5e_arm,
-    home_qpos=(UR5E.home_qpos[0] - math.pi, *UR5E.home_qpos[1:]),
-)
+# Same joint conventions, home configuration, gripper, gains and F/T sensor as the primitive robots;
+# only the arm's geometry differs.
+UR5E_MENAGERIE = replace(UR5E, name="ur5e_menagerie", build_arm=build_menagerie_ur5e_arm)
 GEN3_MENAGERIE = replace(gen3.GEN3, name="gen3_menagerie", build_arm=build_menagerie_gen3_arm)
