@@ -64,3 +64,20 @@ def test_record_cli_and_overwrite_guard(tmp_path):
     assert (out / "meta" / "info.json").is_file()
     with pytest.raises(ValueError, match="exists"):
         main(["record", "--task", "peg_in_hole", "--episodes", "1", "--seed", "5", "--out", str(out)])
+
+
+def test_recording_with_images_decodes_the_camera_frames(tmp_path):
+    """``--images``: the front camera goes in as a LeRobot video feature and decodes back (pyav or
+    torchcodec) as a (3, H, W) float image in [0, 1] that is not blank."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    root = tmp_path / "press_images"
+    result = record_demonstrations("press", 1, 0, root, images=True, image_size=48, progress=False)
+    ds = LeRobotDataset("local/press_images", root=root)
+    key = f"{layout.OBS_IMAGES_PREFIX}front"
+    assert ds.meta.video_keys == [key]
+    assert len(ds) == result.episodes[0]["n_frames"]
+    first, last = ds[0][key], ds[len(ds) - 1][key]
+    assert tuple(first.shape) == (3, 48, 48) and 0.0 <= float(first.min()) and float(first.max()) <= 1.0
+    assert float(first.std()) > 0.05  # a rendered scene, not a constant frame
+    assert float((first - last).abs().mean()) > 1e-3  # the arm moved between the first and last frame
