@@ -1,13 +1,13 @@
-"""``forcemap`` command line: record / convert / segment / fit / eval / report / push.
+"""``forcemap`` command line: record / convert / segment / viz / fit / eval / report / push.
 
 Each subcommand lives in its own module exposing ``add_arguments(parser)`` and ``run(args) -> int``;
 modules are imported only when their subcommand runs, so ``forcemap --help`` stays fast.
 
 :func:`main` raises what the subcommand raises (for callers and tests); the console script
 :func:`cli` prints bad input (``ValueError``) and what the machine refused (``OSError``: a missing or
-existing file, an unreachable or offline Hub, no Hub token) as one ``forcemap <command>: error: ...``
-line with exit status 2, like argparse does for bad flags, and shows the traceback only with
-``FORCEMAP_TRACEBACK=1``.
+existing file, an unreachable or offline Hub, no Hub token; ``ImportError``: a missing optional
+dependency) as one ``forcemap <command>: error: ...`` line with exit status 2, like argparse does for
+bad flags, and shows the traceback only with ``FORCEMAP_TRACEBACK=1``.
 """
 
 from __future__ import annotations
@@ -30,6 +30,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "convert lab-recorder / GBTI h5 files into a LeRobot v3 dataset",
     ),
     "segment": ("lerobot_forcemap.data.segment", "segment a dataset's episodes and write the segments back"),
+    "viz": (
+        "lerobot_forcemap.data.viz",
+        "show a dataset episode in Rerun with its force features and segments",
+    ),
     "fit": ("lerobot_forcemap.experiments.fit", "fit a forcemap policy from a dataset and save a checkpoint"),
     "eval": (
         "lerobot_forcemap.experiments.evaluate",
@@ -67,9 +71,10 @@ def main(argv: list[str] | None = None) -> int:
     return int(module.run(args) or 0)
 
 
-#: bad input (messages name the argument, field, episode or frame) and refusals of the file system or
-#: the Hub (huggingface_hub's HTTP, offline-mode and missing-token errors are all OSErrors)
-USER_ERRORS = (ValueError, OSError)
+#: bad input (messages name the argument, field, episode or frame), refusals of the file system or the
+#: Hub (huggingface_hub's HTTP, offline-mode and missing-token errors are all OSErrors) and a missing
+#: optional dependency (ImportError naming the extra to install)
+USER_ERRORS = (ValueError, OSError, ImportError)
 TRACEBACK_ENV = "FORCEMAP_TRACEBACK"
 
 

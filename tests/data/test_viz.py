@@ -1,0 +1,75 @@
+"""``forcemap viz``: an episode's force features, segments and camera in a Rerun recording, read back."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lerobot_forcemap import layout
+from lerobot_forcemap.cli import cli
+from lerobot_forcemap.data.segment import read_subtasks, write_segments
+from lerobot_forcemap.data.viz import visualize_episode
+
+pytest.importorskip("rerun")  # the viz extra (installed by make venv)
+
+
+def read_rrd(path) -> dict[str, dict[str, list]]:
+    """``{entity path: {column: values}}`` of a .rrd file, chunks of one entity concatenated."""
+    from rerun.experimental import RrdReader
+
+    out: dict[str, dict[str, list]] = {}
+    for chunk in RrdReader(str(path)).store().stream().to_chunks():
+        batch = chunk.to_record_batch()
+        cols = out.setdefault(chunk.entity_path.lstrip("/"), {})
+        for name in batch.schema.names:
+            cols.setdefault(name, []).extend(batch.column(name).to_pylist())
+    return out
+
+
+@pytest.fixture(scope="module")
+def segmented_camera_dataset(tmp_path_factory):
+    """One recorded press episode with a 32 px camera, split by hand into three segments."""
+    from lerobot_forcemap.envs.record import record_demonstrations
+
+    root = tmp_path_factory.mktemp("viz") / "press"
+    result = record_demonstrations("press", 1, 0, root, images=True, image_size=32, progress=False)
+    n = result.episodes[0]["n_frames"]
+    labels = np.repeat([0, 1, 2], [20, 30, n - 50])
+    write_segments(root, {0: labels})
+    return root, labels
+
+
+def test_recording_holds_force_segments_subtasks_and_camera(segmented_camera_dataset, tmp_path):
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    root, labels = segmented_camera_dataset
+    path, logged = visualize_episode(root, 0, save=tmp_path / "ep0.rrd")
+    rec = read_rrd(path)
+    ds = LeRobotDataset("local/press", root=root)
+    table = ds.hf_dataset.with_format("numpy")
+    n = len(labels)
+    # what lerobot-dataset-viz logs, under its names, and what it leaves out
+    for entity in ("action", "state", layout.OBS_FORCE, layout.CONTACT_FORCE, layout.SEGMENT_INDEX):
+        assert logged[entity] == n and len(rec[entity]["Scalars:scalars"]) == n, entity
+    np.testing.assert_array_equal(rec[layout.SEGMENT_INDEX]["frame_index"], np.arange(n))
+    np.testing.assert_array_equal(np.ravel(rec[layout.SEGMENT_INDEX]["Scalars:scalars"]), labels)
+    np.testing.assert_allclose(
+        np.array(rec[layout.OBS_FORCE]["Scalars:scalars"]), np.asarray(table[layout.OBS_FORCE]), rtol=1e-6
+    )
+    assert rec[layout.OBS_FORCE]["SeriesLines:names"] == [list(layout.FORCE_NAMES)]
+    # one text row per segment, at the segment's first frame
+    rows = read_subtasks(ds, 0)
+    assert [t for [t] in rec["subtasks/motion"]["TextLog:text"]] == [r["content"] for r in rows]
+    assert len(rows) == 3
+    assert rec["subtasks/motion"]["frame_index"] == [0, 20, 50]
+    camera = f"{layout.OBS_IMAGES_PREFIX}front"
+    assert logged[camera] == n and len(rec[camera]["frame_index"]) == n
+
+
+def test_cli_writes_the_file_and_names_a_bad_episode(segmented_camera_dataset, tmp_path, capsys):
+    root, _ = segmented_camera_dataset
+    assert cli(["viz", "--dataset", str(root), "--episode", "3", "--save", str(tmp_path / "x.rrd")]) == 2
+    assert "--episode 3: the dataset has episodes 0..0" in capsys.readouterr().err
+    assert not (tmp_path / "x.rrd").exists()
+    assert cli(["viz", "--dataset", str(root), "--save", str(tmp_path / "ep0.rrd")]) == 0
+    assert (tmp_path / "ep0.rrd").stat().st_size > 0
