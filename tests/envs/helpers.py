@@ -1,6 +1,9 @@
 """Checks and rollouts shared by the env tests."""
 
+import warnings
+
 import numpy as np
+from gymnasium.utils.env_checker import check_env
 
 import lerobot_forcemap.envs as E
 from lerobot_forcemap.envs.demonstrators import make_demonstrator, run_episode
@@ -51,3 +54,16 @@ def assert_seed_determinism(env, seed: int, steps: int = 10) -> None:
             np.testing.assert_array_equal(o1[k], o2[k])
     other, _ = env.reset(seed=seed + 1)
     assert not np.array_equal(other["environment_state"], runs[0][0]["environment_state"])
+
+
+def check_task_env(task: str, **env_kwargs) -> None:
+    """gymnasium's ``check_env`` (render check included) on a task. Two of its advisories are by
+    design here and silenced, every other warning or error stands: the action is an absolute Cartesian
+    pose in metres (the action layout datasets and policies share, not a normalised [-1, 1] box), and
+    wrist and finger forces have no finite bound (a protective stop ends the episode instead)."""
+    env = E.make(task, **env_kwargs)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*symmetric and normalized space", category=UserWarning)
+        warnings.filterwarnings("ignore", message=".*Box observation space m.*infinity", category=UserWarning)
+        check_env(env.unwrapped, skip_render_check=False)
+    env.close()

@@ -3,14 +3,13 @@ import importlib
 import gymnasium as gym
 import numpy as np
 import pytest
-from gymnasium.utils.env_checker import check_env
 
 import lerobot_forcemap.envs as E
 from lerobot_forcemap.envs.registration import TASKS
 from lerobot_forcemap.layout import ACTION_DIM, ENV_PIXELS
 
 from .conftest import TASK_NAMES
-from .helpers import assert_seed_determinism
+from .helpers import assert_seed_determinism, check_task_env
 
 
 def test_gym_ids_registered_with_task_lengths():
@@ -29,9 +28,7 @@ def test_gym_ids_registered_with_task_lengths():
 
 @pytest.mark.parametrize("task", TASK_NAMES)
 def test_check_env(task):
-    env = E.make(task)
-    check_env(env.unwrapped, skip_render_check=False)
-    env.close()
+    check_task_env(task)
 
 
 @pytest.mark.parametrize("task", TASK_NAMES)

@@ -3,7 +3,6 @@
 import mujoco
 import numpy as np
 import pytest
-from gymnasium.utils.env_checker import check_env
 
 import lerobot_forcemap.envs as E
 from lerobot_forcemap.envs.tasks.grasp_flip import GraspFlipTask
@@ -11,7 +10,7 @@ from lerobot_forcemap.envs.tasks.grasp_push import GAP_RANGE, WALL_NOMINAL_X, Gr
 from lerobot_forcemap.envs.tasks.grasping import GRASP_OBJECTS
 from lerobot_forcemap.layout import finger_force_names
 
-from .helpers import assert_seed_determinism
+from .helpers import assert_seed_determinism, check_task_env
 
 GRASP_TASKS = ("grasp_push", "grasp_flip")
 FINGER_BODIES = {
@@ -28,9 +27,7 @@ def state(env, obs) -> dict[str, float]:
 
 @pytest.mark.parametrize("task", GRASP_TASKS)
 def test_check_env(task):
-    env = E.make(task)
-    check_env(env.unwrapped, skip_render_check=False)
-    env.close()
+    check_task_env(task)
 
 
 @pytest.mark.parametrize(("task", "obj"), [("grasp_push", "book"), ("grasp_flip", "apple")])
