@@ -15,6 +15,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from lerobot_forcemap.data.schema import require_dataset_root
+
 __all__ = ["CARD_FILE", "card_kwargs", "check_repo_id", "push_dataset"]
 
 CARD_FILE = "meta/forcemap_card.json"
@@ -54,9 +56,7 @@ def push_dataset(
     """
     from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lazy: heavy import
 
-    root = Path(root)
-    if not (root / "meta" / "info.json").is_file():
-        raise ValueError(f"{root}: not a LeRobot dataset (no meta/info.json)")
+    root = require_dataset_root(root)
     check_repo_id(repo_id)
     kwargs = card_kwargs(root)
     kwargs["tags"] = sorted({*kwargs.get("tags", ()), *(tags or ())}) or None

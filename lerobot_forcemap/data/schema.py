@@ -32,6 +32,7 @@ __all__ = [
     "add_episode",
     "card_markdown",
     "write_dataset_card",
+    "require_dataset_root",
 ]
 
 FLOAT_DTYPE = "float32"
@@ -324,6 +325,16 @@ def card_markdown(
     return "\n".join(lines)
 
 
+def require_dataset_root(root: str | Path, argument: str | None = None) -> Path:
+    """``root`` as a Path if it holds a LeRobot dataset (``meta/info.json``), else ``ValueError``
+    naming it (and the command-line ``argument`` it came from, e.g. ``--dataset``)."""
+    root = Path(root)
+    if not (root / "meta" / "info.json").is_file():
+        where = f"{argument} {root}" if argument else str(root)
+        raise ValueError(f"{where}: not a LeRobot dataset (no meta/info.json)")
+    return root
+
+
 def write_dataset_card(
     root: str | Path,
     *,
@@ -343,11 +354,8 @@ def write_dataset_card(
     :func:`lerobot_forcemap.data.hub.push_dataset` pushes the same card to the Hub (LeRobot's
     ``push_to_hub`` regenerates README.md from the template). Reads ``meta/info.json`` for the features.
     """
-    root = Path(root)
-    info_path = root / "meta" / "info.json"
-    if not info_path.is_file():
-        raise ValueError(f"{root}: not a LeRobot dataset (no meta/info.json)")
-    info = json.loads(info_path.read_text())
+    root = require_dataset_root(root)
+    info = json.loads((root / "meta" / "info.json").read_text())
     features = {k: v for k, v in info["features"].items() if k not in LEROBOT_AUTO_KEYS}
     description = card_markdown(
         title=title, source=source, robot=robot, features=features, units=units, frames=frames, extra=extra

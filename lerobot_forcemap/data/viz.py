@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from lerobot_forcemap import layout
-from lerobot_forcemap.data.schema import numeric_feature_keys
+from lerobot_forcemap.data.schema import numeric_feature_keys, require_dataset_root
 from lerobot_forcemap.data.segment import SUBTASK_STYLES, read_subtasks
 
 __all__ = ["ENTITY_NAMES", "log_episode", "visualize_episode", "add_arguments", "run"]
@@ -47,7 +47,9 @@ def _import_rerun():
 
 def _episode_rows(dataset: Any, episode: int) -> tuple[int, int]:
     if episode not in range(dataset.meta.total_episodes):
-        raise ValueError(f"--episode {episode}: the dataset has episodes 0..{dataset.meta.total_episodes - 1}")
+        raise ValueError(
+            f"--episode {episode}: the dataset has episodes 0..{dataset.meta.total_episodes - 1}"
+        )
     ep = dataset.meta.episodes[episode]
     return int(ep["dataset_from_index"]), int(ep["dataset_to_index"])
 
@@ -102,9 +104,7 @@ def visualize_episode(
     spawned Rerun viewer. Returns the file (or None) and the entities logged."""
     from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lazy: heavy import
 
-    root = Path(root)
-    if not (root / "meta" / "info.json").is_file():
-        raise ValueError(f"--dataset {root}: not a LeRobot dataset (no meta/info.json)")
+    root = require_dataset_root(root, "--dataset")
     rr = _import_rerun()
     dataset = LeRobotDataset(repo_id or f"local/{root.name}", root=root)
     _episode_rows(dataset, episode)  # a bad episode fails before a viewer or file is opened
@@ -126,7 +126,9 @@ def visualize_episode(
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dataset", required=True, help="dataset root folder")
     parser.add_argument("--episode", type=int, default=0, help="episode index (default 0)")
-    parser.add_argument("--save", default=None, help="write a .rrd recording here instead of opening a viewer")
+    parser.add_argument(
+        "--save", default=None, help="write a .rrd recording here instead of opening a viewer"
+    )
     parser.add_argument("--repo-id", default=None)
 
 

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from lerobot_forcemap.data.schema import require_dataset_root
+
 __all__ = ["FitResult", "make_config", "fit_policy", "add_arguments", "run"]
 
 
@@ -73,9 +75,7 @@ def fit_policy(
     out = Path(out)
     if out.exists() and any(out.iterdir()) and not overwrite:
         raise ValueError(f"{out} exists and is not empty; pass overwrite=True (--overwrite)")
-    root = Path(dataset)
-    if not (root / "meta" / "info.json").is_file():
-        raise ValueError(f"--dataset {root}: not a LeRobot dataset (no meta/info.json)")
+    root = require_dataset_root(dataset, "--dataset")
     cfg = config if config is not None else make_config(episodes, overrides)
     t0 = time.perf_counter()
     meta = LeRobotDatasetMetadata(repo_id or f"local/{root.name}", root=root)
