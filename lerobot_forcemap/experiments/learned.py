@@ -37,7 +37,9 @@ __all__ = [
     "ENV_STATE_META_FILE",
     "derive_env_state_dataset",
     "policy_config",
+    "train_settings",
     "train_command",
+    "settings_to_cli",
     "force_inputs_text",
     "result_document",
 ]
@@ -232,6 +234,41 @@ def _cli_value(v: Any) -> str:
     return str(v)
 
 
+def train_settings(
+    method: str,
+    dataset_root: str | Path,
+    output_dir: str | Path,
+    *,
+    steps: int,
+    config: dict[str, Any],
+    batch_size: int = 8,
+    seed: int = 1000,
+    repo_id: str | None = None,
+) -> dict[str, Any]:
+    """A ``lerobot-train`` configuration as a nested dict (the layout of LeRobot's ``train_config.json``,
+    so ``json.dump`` of it is a ``--config_path`` file): CPU, no Hub push, no workers, one checkpoint at
+    the end. ``method``: a LeRobot policy type; ``config``: its ``--policy.<key>`` values (see
+    ``policy_config``)."""
+    if steps < 1:
+        raise ValueError(f"steps must be >= 1, got {steps}")
+    policy = {"type": method, "device": "cpu", "push_to_hub": False, **config}
+    if method == "diffusion":
+        # a short run cannot afford the default 500 warm-up steps
+        policy.setdefault("scheduler_warmup_steps", max(1, steps // 20))
+    return {
+        "dataset": {"repo_id": repo_id or f"local/{Path(dataset_root).name}", "root": str(dataset_root)},
+        "policy": policy,
+        "output_dir": str(output_dir),
+        "steps": steps,
+        "save_freq": steps,
+        "log_freq": max(1, min(50, steps // 10)),
+        "batch_size": batch_size,
+        "seed": seed,
+        "num_workers": 0,
+        "wandb": {"enable": False},
+    }
+
+
 def train_command(
     method: str,
     dataset_root: str | Path,
@@ -244,33 +281,29 @@ def train_command(
     repo_id: str | None = None,
     python: str = "python",
 ) -> list[str]:
-    """``lerobot-train`` argv (run as ``python -m lerobot.scripts.lerobot_train``), CPU, no Hub push,
-    no workers, one checkpoint at the end. ``config``: ``--policy.<key>`` values (see ``policy_config``)."""
-    if steps < 1:
-        raise ValueError(f"steps must be >= 1, got {steps}")
-    cfg = dict(config)
-    if method == "diffusion":
-        # a short run cannot afford the default 500 warm-up steps
-        cfg.setdefault("scheduler_warmup_steps", max(1, steps // 20))
-    argv = [
-        python,
-        "-m",
-        "lerobot.scripts.lerobot_train",
-        f"--policy.type={method}",
-        f"--dataset.repo_id={repo_id or 'local/' + Path(dataset_root).name}",
-        f"--dataset.root={dataset_root}",
-        f"--output_dir={output_dir}",
-        f"--steps={steps}",
-        f"--save_freq={steps}",
-        f"--log_freq={max(1, min(50, steps // 10))}",
-        f"--batch_size={batch_size}",
-        f"--seed={seed}",
-        "--num_workers=0",
-        "--policy.device=cpu",
-        "--policy.push_to_hub=false",
-        "--wandb.enable=false",
-    ]
-    argv += [f"--policy.{k}={_cli_value(v)}" for k, v in cfg.items()]
+    """``lerobot-train`` argv (run as ``python -m lerobot.scripts.lerobot_train``) of ``train_settings``."""
+    settings = train_settings(
+        method,
+        dataset_root,
+        output_dir,
+        steps=steps,
+        config=config,
+        batch_size=batch_size,
+        seed=seed,
+        repo_id=repo_id,
+    )
+    return [python, "-m", "lerobot.scripts.lerobot_train", *settings_to_cli(settings)]
+
+
+def settings_to_cli(settings: dict[str, Any]) -> list[str]:
+    """``--key=value`` arguments of a nested LeRobot configuration dict: a top-level dict is a section
+    (``--policy.type=act``); deeper values are written whole (a dict as JSON, a list as ``[a,b]``)."""
+    argv = []
+    for key, value in settings.items():
+        if isinstance(value, dict):
+            argv += [f"--{key}.{k}={_cli_value(v)}" for k, v in value.items()]
+        else:
+            argv.append(f"--{key}={_cli_value(value)}")
     return argv
 
 

@@ -64,6 +64,7 @@ def _run(settings: Settings, stages: tuple[str, ...]) -> dict:
     import shutil
 
     import ablations
+    import config_files
     import force_reduction
     import grasping
     import peg_in_hole
@@ -198,6 +199,11 @@ def _run(settings: Settings, stages: tuple[str, ...]) -> dict:
     print(
         f"wrote {s.results / 'experiments.json'}, {s.results / 'experiments.md'} and {len(figures)} figures"
     )
+    # the chosen settings as lerobot-train / lerobot-eval --config_path files (quick runs keep theirs in --out)
+    config_dir = s.results / "configs" if s.quick else config_files.REPO / "configs"
+    learned_docs = [] if s.quick else config_files.load_learned(s.learned_dir)
+    written = config_files.write_configs(config_files.build_configs(doc, learned_docs), config_dir)
+    print(f"wrote {len(written)} configs under {config_dir}")
     print(
         f"total wall time {runtime['total_s']:.0f} s ({runtime['cached_jobs']} of {runtime['jobs']} jobs cached)"
     )

@@ -63,6 +63,15 @@ def test_tiny_run_writes_json_markdown_and_figures(tiny_run):
     assert (s.results / "experiments_profiles.png").stat().st_size > 10_000
     assert (s.results / "experiments_table2.png").stat().st_size > 10_000
     assert {t["method"] for t in saved["targets"]} >= {"ours", "ours_limit"}
+    # the chosen settings as --config_path files, next to the quick results (only the tasks it ran)
+    configs = sorted(
+        str(p.relative_to(s.results / "configs")) for p in (s.results / "configs").glob("*/*.json")
+    )
+    assert configs == [
+        f"{kind}/forcemap_{task}.json" for kind in ("eval", "train") for task in ("erase", "press")
+    ]
+    press_cfg = json.loads((s.results / "configs" / "train" / "forcemap_press.json").read_text())
+    assert press_cfg["policy"]["stiffness"] == doc["tuning"]["press"]["weights"]["chosen"]["stiffness"]
 
 
 def test_tuning_records_its_grid_and_choices(tiny_run):
