@@ -49,6 +49,7 @@ __all__ = [
     "ElasticMapFit",
     "fit_force_elastic_map",
     "assign_nearest",
+    "exact_nearest",
     "NearestNodeAssigner",
     "NumpyEMSteps",
     "arc_length",
@@ -120,19 +121,45 @@ class ElasticMapFit:
 # E-step and initialisation
 
 
-def assign_nearest(points: Array, nodes: Array, *, augmented: Array | None = None) -> NDArray[np.intp]:
-    """Index of the nearest node for every point: points (M, d), nodes (N, d) -> (M,).
+def assign_nearest(points: Array, nodes: Array) -> NDArray[np.intp]:
+    """Index of the nearest node for every point: points (M, d), nodes (N, d) -> (M,); ties to the
+    lowest index.
 
     ``‖x − y‖² = ‖x‖² − 2x·y + ‖y‖²`` and ``‖x‖²`` is the same for every node of a row, so one matrix
-    product ``[x, 1] @ [−2yᵀ; ‖y‖²]`` (M, N) and an argmin give the assignment. ``augmented`` is
-    ``[points, 1]`` (M, d+1) when the caller reuses it across iterations.
+    product (M, N) on centred coordinates and an argmin give the assignment. The expansion rounds
+    differently from summing squared differences, so rows whose two nearest nodes are within its
+    rounding error are decided again by :func:`exact_nearest` (the compiled E-step's arithmetic).
     """
-    if augmented is None:
-        augmented = np.hstack([points, np.ones((len(points), 1))])
-    rhs = np.empty((nodes.shape[1] + 1, nodes.shape[0]))
-    np.multiply(nodes.T, -2.0, out=rhs[:-1])
-    rhs[-1] = np.einsum("ij,ij->i", nodes, nodes)
-    return np.argmin(augmented @ rhs, axis=1)
+    origin = points.mean(axis=0)
+    c, cy = points - origin, nodes - origin
+    ysq = np.einsum("ij,ij->i", cy, cy)
+    d2 = c @ (-2.0 * cy.T) + ysq  # squared distances minus ‖x‖²
+    labels = np.argmin(d2, axis=1)
+    if nodes.shape[0] > 1:
+        best, second = np.partition(d2, 1, axis=1)[:, :2].T
+        close = np.flatnonzero(second - best <= expansion_tolerance(np.einsum("ij,ij->i", c, c), ysq))
+        if len(close):
+            labels[close] = exact_nearest(points.T, nodes.T, close)[0]
+    return labels
+
+
+def expansion_tolerance(point_sq: Array, node_sq: Array) -> Array:
+    """Per point, a bound on the rounding error of ``−2x·y + ‖y‖²`` (centred ``‖x‖²`` point_sq (m,),
+    ``‖y‖²`` node_sq (N,)): two nodes closer than this in the expansion may be in either order."""
+    d_eps = 64.0 * np.finfo(np.float64).eps
+    return d_eps * (point_sq + 2.0 * float(np.max(node_sq)))
+
+
+def exact_nearest(
+    point_columns: Array, node_columns: Array, idx: NDArray[np.intp]
+) -> tuple[NDArray[np.intp], Array]:
+    """Nearest node of the points ``idx (m,)`` by distances summed axis by axis (as the compiled E-step
+    computes them, so near-ties go the same way), ties to the lowest index: point_columns (d, M),
+    node_columns (d, N) -> labels (m,), distances to every node (N, m)."""
+    n = node_columns.shape[1]
+    every = np.broadcast_to(np.arange(n)[:, None], (n, len(idx)))
+    dist = point_node_distances(point_columns, node_columns, every, idx)
+    return np.argmin(dist, axis=0), dist
 
 
 def point_node_distances(
@@ -182,8 +209,11 @@ class NearestNodeAssigner:
         (sets the slack against rounding)."""
         self.points = points
         self.columns = np.ascontiguousarray(points.T)  # (d, M): per-axis gathers are contiguous
-        self.augmented = np.hstack([points, np.ones((len(points), 1))])
-        self.sq = np.einsum("ij,ij->i", points, points)
+        # the expansion of _full runs on centred coordinates: a far origin would cost it digits
+        self.origin = points.mean(axis=0)
+        centred = points - self.origin
+        self.augmented = np.hstack([centred, np.ones((len(points), 1))])
+        self.sq = np.einsum("ij,ij->i", centred, centred)
         self.window_size = window_size
         self.labels: NDArray[np.intp] | None = None
         self.nodes: Array | None = None
@@ -208,9 +238,11 @@ class NearestNodeAssigner:
 
     def _full(self, idx: NDArray[np.intp] | slice, nodes: Array) -> None:
         """Exact nodes and fresh bounds for the samples ``idx`` from all (M', N) distances."""
+        idx = np.arange(len(self.points))[idx] if isinstance(idx, slice) else idx
         rhs = np.empty((nodes.shape[1] + 1, nodes.shape[0]))
-        np.multiply(nodes.T, -2.0, out=rhs[:-1])
-        rhs[-1] = np.einsum("ij,ij->i", nodes, nodes)
+        centred = nodes - self.origin
+        np.multiply(centred.T, -2.0, out=rhs[:-1])
+        rhs[-1] = np.einsum("ij,ij->i", centred, centred)
         d2 = self.augmented[idx] @ rhs  # squared distances minus ‖x‖²
         # Row minima by argmin + gather: numpy's argmin over short rows is about twice as fast as min.
         rows = np.arange(d2.shape[0])
@@ -223,11 +255,29 @@ class NearestNodeAssigner:
         np.put(d2, flat, np.inf)
         outside = d2[rows, np.argmin(d2, axis=1)]  # inf where the window holds every node
         sq = self.sq[idx]
+        near = np.min(near, axis=0)
         self.labels[idx] = first
         self.center[idx] = first
         self.upper[idx] = np.sqrt(np.maximum(best + sq, 0.0))
-        self.lower_in[idx] = np.sqrt(np.maximum(np.min(near, axis=0) + sq, 0.0))
+        self.lower_in[idx] = np.sqrt(np.maximum(near + sq, 0.0))
         self.lower_out[idx] = np.sqrt(np.maximum(outside + sq, 0.0))
+        close = np.minimum(near, outside) - best <= expansion_tolerance(sq, rhs[-1])
+        if close.any():
+            self._exact(idx[close], nodes)
+
+    def _exact(self, idx: NDArray[np.intp], nodes: Array) -> None:
+        """Labels and bounds of samples whose two nearest nodes the expansion cannot tell apart, from
+        :func:`exact_nearest` (how the compiled E-step decides them)."""
+        labels, dist = exact_nearest(self.columns, np.ascontiguousarray(nodes.T), idx)
+        cols = np.arange(len(idx))
+        in_window = np.zeros(dist.shape, dtype=bool)
+        in_window[np.take(self.windows, labels, axis=1), cols] = True
+        self.labels[idx] = labels
+        self.center[idx] = labels
+        self.upper[idx] = dist[labels, cols]
+        self.lower_out[idx] = np.min(np.where(in_window, np.inf, dist), axis=0)
+        in_window[labels, cols] = False
+        self.lower_in[idx] = np.min(np.where(in_window, dist, np.inf), axis=0)
 
     def __call__(self, nodes: Array) -> NDArray[np.intp]:
         if self.labels is None or self.nodes is None or self.nodes.shape != nodes.shape:
@@ -272,7 +322,8 @@ class NearestNodeAssigner:
             fresh = reach[which] - c_dist
             self.lower_out[u] = np.maximum(self.lower_out[u], fresh)
             undecided[undecided] = best[undecided] + self.slack >= self.lower_out[u]
-        label = win[j, cols]
+        # exact ties go to the lowest node index (window rows are not in index order)
+        label = np.min(np.where(near == best, win, nodes.shape[0]), axis=0)
         near[win == label] = np.inf
         decided = ~undecided
         ok = idx[decided]

@@ -137,7 +137,9 @@ class EMKernel:
     def cluster_sums(self, w: Array | None) -> tuple[Array, Array]:
         """``W, b (N, d)`` of the last assignment, as :func:`~.weights.cluster_sums` (``w`` (M, d) or
         ``None`` for unit weights)."""
-        wp = None if w is None else _ptr(np.ascontiguousarray(w, dtype=np.float64))
+        # bound to a name: the C call must not read a temporary that is already freed
+        weights = None if w is None else np.ascontiguousarray(w, dtype=np.float64)
+        wp = None if weights is None else _ptr(weights)
         self.lib.fm_cluster_sums(self.m, self.n, self.d, self._labels, self._x, wp, *self._sums_demo)
         return self.sums_demo[0].copy(), self.sums_demo[1].copy()
 

@@ -15,7 +15,7 @@ from lerobot_forcemap.elmap import (
     resolve_constraints,
     solve_m_step_banded,
 )
-from lerobot_forcemap.elmap.fit import NearestNodeAssigner
+from lerobot_forcemap.elmap.fit import NearestNodeAssigner, arc_length_resample
 
 from .helpers import line_demo, s_curve
 
@@ -95,6 +95,29 @@ def test_returned_nodes_are_a_fixed_point_of_em(with_force):
         W, b = W + Wf, b + bf
     again = solve_m_step_banded(W, b, len(x) * np.sqrt(3), 0.01, 0.01)
     np.testing.assert_allclose(again, fit.nodes, rtol=0, atol=1e-8)
+
+
+def _brute_force_nearest(x, y):
+    """Distances from differences, argmin ties to the lowest index."""
+    return np.argmin(np.linalg.norm(x[:, None, :] - y[None, :, :], axis=2), axis=1)
+
+
+@pytest.mark.parametrize("offset", [0.0, 1e2, 1e4])
+def test_assignment_is_exact_far_from_the_origin_and_ties_go_to_the_lowest_node(offset):
+    """``‖x‖² − 2x·y + ‖y‖²`` loses digits to a far origin and rounds differently from the differences
+    the compiled E-step sums: near-ties are decided again from differences, exact ties to the lowest index."""
+    t = np.linspace(0.0, 1.0, 500)
+    x = np.stack([t, np.sin(6 * t)], axis=1) * 0.01 + offset  # a 1 cm path, `offset` metres out
+    y = arc_length_resample(x, 50)
+    y = np.concatenate([y, y[::-1]])  # every node twice: the second copy must never win
+    want = _brute_force_nearest(x, y)
+    assert want.max() < 50
+    np.testing.assert_array_equal(assign_nearest(x, y), want)
+    assigner = NearestNodeAssigner(x)
+    np.testing.assert_array_equal(assigner(y), want)
+    y2 = y.copy()
+    y2[[3, 96]] += 1e-4  # a node and the twin of another move: later E-steps keep the tie rule
+    np.testing.assert_array_equal(assigner(y2), _brute_force_nearest(x, y2))
 
 
 def test_bounded_assigner_matches_brute_force():

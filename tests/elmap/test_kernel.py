@@ -1,5 +1,9 @@
 """The compiled EM loops (``_emkernel.c``) against the NumPy reference path: same labels, same nodes."""
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -49,6 +53,15 @@ def fold(n=1200, seed=0):
     return x, f
 
 
+def gripper_out_and_back():
+    """A gripper opening recorded in whole millimetres: closed, opens, holds, closes. The initial nodes
+    of the way out and the way back coincide to the last bit, so every first assignment is a tie."""
+    g = np.concatenate(
+        [np.ones(200), np.linspace(1, 45, 20), np.full(300, 45.0), np.linspace(45, 1, 20), np.ones(200)]
+    )
+    return np.round(g) / 100.0
+
+
 def fit_both(monkeypatch, args, kwargs):
     monkeypatch.delenv(NUMPY_ENV, raising=False)
     compiled = fit_force_elastic_map(*args, **kwargs)
@@ -69,6 +82,8 @@ CASES = {
     ),
     "force_limit (Clarabel)": lambda: (wipe(), dict(n_nodes=40, force_limit=10.0)),
     "gripper map, d = 1": lambda: ((wipe()[0][:, :1], wipe()[1][:, 2:]), dict(n_nodes=30)),
+    "out-and-back gripper, tied nodes (30)": lambda: ((gripper_out_and_back(), None), dict(n_nodes=30)),
+    "out-and-back gripper, tied nodes (60)": lambda: ((gripper_out_and_back(), None), dict(n_nodes=60)),
     "cap off, max_iter": lambda: (wipe(), dict(n_nodes=50, rho_max=None, stiffness=500.0, max_iter=30)),
 }
 
@@ -149,3 +164,25 @@ def test_a_stale_build_falls_back_to_numpy_with_a_warning(lib, monkeypatch):
         monkeypatch.undo()
         kernel._library.cache_clear()
     assert load_em_kernel() is not None
+
+
+def test_cluster_sums_keep_a_copied_weight_array_alive(lib):
+    """Weights that are not C-contiguous are copied for the C call; the copy must outlive the call.
+    With glibc returning large blocks to the OS at once (MALLOC_MMAP_THRESHOLD_), reading a freed copy
+    crashes, so this runs in a child process."""
+    code = (
+        "import numpy as np\n"
+        "from lerobot_forcemap.elmap.kernel import EMKernel, load_em_kernel\n"
+        "from lerobot_forcemap.elmap.weights import cluster_sums\n"
+        "rng = np.random.default_rng(0)\n"
+        "x = rng.standard_normal((400_000, 2))\n"
+        "kernel = EMKernel(load_em_kernel(), x, 1.0)\n"
+        "labels = kernel.assign(rng.standard_normal((50, 2)))\n"
+        "w = np.asfortranarray(rng.uniform(1, 2, (400_000, 2)))\n"
+        "for got, want in zip(kernel.cluster_sums(w), cluster_sums(labels, w, x, 50)):\n"
+        "    np.testing.assert_array_equal(got, want)\n"
+    )
+    env = {**os.environ, "MALLOC_MMAP_THRESHOLD_": "65536", "OPENBLAS_NUM_THREADS": "1"}
+    env.pop(NUMPY_ENV, None)
+    run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
