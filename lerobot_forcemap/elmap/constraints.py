@@ -65,8 +65,15 @@ class ResolvedConstraints:
         return self.box_lo is not None or len(self.halfspace_offsets) > 0 or self.max_step is not None
 
 
+def _numbers(value: ArrayLike, what: str) -> NDArray[np.float64]:
+    try:
+        return np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"constraints.{what}: expected numbers, got {value!r}") from None
+
+
 def _point(value: ArrayLike, dim: int, what: str) -> NDArray[np.float64]:
-    p = np.asarray(value, dtype=float).reshape(-1)
+    p = _numbers(value, what)
     if p.shape != (dim,):
         raise ValueError(f"constraints.{what}: expected a point of shape ({dim},), got {np.shape(value)}")
     if not np.all(np.isfinite(p)):
@@ -140,14 +147,18 @@ def resolve_constraints(
             lo, hi = constraints.box
         except (TypeError, ValueError):
             raise ValueError("constraints.box: expected a (lo, hi) pair") from None
-        box_lo = np.asarray(lo, dtype=float).reshape(-1)
-        box_hi = np.asarray(hi, dtype=float).reshape(-1)
+        box_lo, box_hi = _numbers(lo, "box lo"), _numbers(hi, "box hi")
         if box_lo.shape != (dim,) or box_hi.shape != (dim,):
             raise ValueError(
                 f"constraints.box: lo and hi must have shape ({dim},), got {box_lo.shape}, {box_hi.shape}"
             )
         if np.any(np.isnan(box_lo)) or np.any(np.isnan(box_hi)):
             raise ValueError("constraints.box: NaN bound")
+        if np.any(box_lo == np.inf) or np.any(box_hi == -np.inf):
+            bad = int(np.argmax((box_lo == np.inf) | (box_hi == -np.inf)))
+            raise ValueError(
+                f"constraints.box: lo[{bad}]={box_lo[bad]}, hi[{bad}]={box_hi[bad]} leave no room; infeasible"
+            )
         if np.any(box_lo > box_hi):
             bad = int(np.argmax(box_lo > box_hi))
             raise ValueError(
@@ -168,6 +179,12 @@ def resolve_constraints(
         except (TypeError, ValueError):
             raise ValueError(f"constraints.halfspaces[{k}]: expected a (normal, offset) pair") from None
         normals[k] = _point(normal, dim, f"halfspaces[{k}].normal")
+        try:
+            offset = float(offset)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"constraints.halfspaces[{k}]: offset must be a number, got {offset!r}"
+            ) from None
         if not np.isfinite(offset):
             raise ValueError(f"constraints.halfspaces[{k}]: non-finite offset {offset}")
         if np.linalg.norm(normals[k]) == 0:

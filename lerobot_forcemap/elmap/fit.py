@@ -509,6 +509,8 @@ def fit_force_elastic_map(
             raise ValueError(f"rho_max: must be in (0, 1), got {rho_max}")
     if force_limit is not None:
         force_limit = _check_scalar("force_limit", force_limit, strict=True)
+        if forces is None:
+            raise ValueError("force_limit: needs forces (it limits the demonstrated force); got forces=None")
     if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
         raise ValueError(f"max_iter: need an integer >= 1, got {max_iter!r}")
     tol = _check_scalar("tol", tol)

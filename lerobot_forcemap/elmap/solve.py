@@ -336,7 +336,8 @@ def solve_m_step_clarabel(
     sol = solver.solve()
     status = sol.status
     if status in (clarabel.SolverStatus.PrimalInfeasible, clarabel.SolverStatus.AlmostPrimalInfeasible):
-        raise ValueError(f"constraints: the constraint set is infeasible (Clarabel status {status})")
+        what = "constraints and force_limit" if extra is not None and len(extra) else "constraints"
+        raise ValueError(f"{what}: the constraint set is infeasible (Clarabel status {status})")
     if status not in (clarabel.SolverStatus.Solved, clarabel.SolverStatus.AlmostSolved):
         raise RuntimeError(f"Clarabel M-step failed with status {status}")
     return np.asarray(sol.x).reshape(d, n).T.copy()

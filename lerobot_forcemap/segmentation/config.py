@@ -28,6 +28,16 @@ def _first_bad_index(mask: np.ndarray) -> tuple[int, ...]:
     return tuple(int(i) for i in np.unravel_index(flat, mask.shape))
 
 
+def _real(value: object) -> float:
+    """``float(value)``, or NaN for what is not a real number (so the caller's check names the field)."""
+    if isinstance(value, bool):
+        return float("nan")
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
 @dataclass(frozen=True, eq=False)
 class Stream:
     """One data stream of a demonstration.
@@ -81,10 +91,10 @@ class Stream:
                 f"stream {self.name!r}: times decrease at frame {i + 1} ({times[i]:.9f} s -> {times[i + 1]:.9f} s);"
                 " sort the samples or fix the recording"
             )
-        weight = float(self.weight)
+        weight = _real(self.weight)
         if not np.isfinite(weight) or weight < 0:
             raise ValueError(f"stream {self.name!r}: weight must be finite and >= 0, got {self.weight!r}")
-        threshold = float(self.threshold)
+        threshold = _real(self.threshold)
         if not (0.0 < threshold <= 1.0):
             raise ValueError(
                 f"stream {self.name!r}: threshold is a fraction of the stream's maximum, in (0, 1], got {self.threshold!r}"
@@ -168,11 +178,12 @@ class SegmentationConfig:
         need(is_int(self.window) and self.window >= 5, f"window must be an int >= 5, got {self.window!r}")
         need(is_int(self.min_run) and self.min_run >= 1, f"min_run must be an int >= 1, got {self.min_run!r}")
         need(is_int(self.grace) and self.grace >= 0, f"grace must be an int >= 0, got {self.grace!r}")
+        sigma, floor = _real(self.sigma), _real(self.floor)
         need(
-            self.sigma is None or (np.isfinite(self.sigma) and self.sigma > 0),
+            self.sigma is None or (np.isfinite(sigma) and sigma > 0),
             f"sigma must be None or > 0, got {self.sigma!r}",
         )
-        need(np.isfinite(self.floor) and self.floor > 0, f"floor must be > 0, got {self.floor!r}")
+        need(np.isfinite(floor) and floor > 0, f"floor must be > 0, got {self.floor!r}")
         need(self.mode in MODES, f"mode must be one of {MODES}, got {self.mode!r}")
         need(
             self.changepoints in CHANGEPOINT_METHODS,

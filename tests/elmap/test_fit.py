@@ -228,6 +228,15 @@ def test_infeasible_constraints_raise_naming_constraints():
         fit_force_elastic_map(x, n_nodes=10, constraints=Constraints(start=[0, 0, 0], via=[(0, [1, 0, 0])]))
 
 
+def test_infeasible_force_limit_names_force_limit():
+    """Two neighbouring samples pressing 60 N in opposite directions cannot both keep a 20 N limit's lift."""
+    x = line_demo(n=100)
+    f = np.zeros_like(x)
+    f[50, 2], f[51, 2] = 60.0, -60.0
+    with pytest.raises(ValueError, match="constraints and force_limit: the constraint set is infeasible"):
+        fit_force_elastic_map(x, f, n_nodes=10, force_limit=20.0, stiffness=100.0)
+
+
 # ---- force size
 
 
@@ -307,6 +316,21 @@ def test_time_law_and_orientation():
         (dict(times=np.arange(20.0)[::-1]), "times"),
         (dict(solver="osqp"), "solver"),
         (dict(positions=[np.zeros((5, 3)), np.zeros((5, 2))]), r"positions\[1\]"),
+        (dict(force_limit=5.0), "force_limit: needs forces"),
+        (
+            dict(constraints=Constraints(box=([np.inf, -1, -1], [np.inf, 1, 1]))),
+            r"constraints.box: lo\[0\]=inf",
+        ),
+        (
+            dict(constraints=Constraints(box=([-1, -1, -np.inf], [1, 1, -np.inf]))),
+            r"constraints.box: lo\[2\]",
+        ),
+        (dict(constraints=Constraints(box=(["a", 0, 0], [1, 1, 1]))), "constraints.box lo: expected numbers"),
+        (
+            dict(constraints=Constraints(halfspaces=[([0, 0, 1], "a")])),
+            r"halfspaces\[0\]: offset must be a number",
+        ),
+        (dict(constraints=Constraints(start=["a", 0, 0])), "constraints.start: expected numbers"),
     ],
 )
 def test_bad_input_names_the_argument(kwargs, field):

@@ -147,6 +147,10 @@ def test_other_bad_input() -> None:
         Stream("a", values, times, weight=-0.1)
     with pytest.raises(ValueError, match=r"stream 'a': threshold .* in \(0, 1\]"):
         Stream("a", values, times, threshold=1.5)
+    with pytest.raises(ValueError, match=r"stream 'a': threshold .* got 'x'"):
+        Stream("a", values, times, threshold="x")
+    with pytest.raises(ValueError, match="stream 'a': weight must be finite and >= 0, got None"):
+        Stream("a", values, times, weight=None)
     with pytest.raises(ValueError, match="stream 'a': values must have shape"):
         Stream("a", np.zeros((300, 2, 2)), times)
 
@@ -160,6 +164,8 @@ def test_other_bad_input() -> None:
         ({"window": 3}, "window must be an int >= 5"),
         ({"floor": 0.0}, "floor must be > 0"),
         ({"sigma": -1.0}, "sigma must be None or > 0"),
+        ({"sigma": "a"}, "sigma must be None or > 0, got 'a'"),
+        ({"floor": None}, "floor must be > 0, got None"),
         ({"seed": 1.5}, "seed must be an int"),
         ({"min_segment_length": 0}, "min_segment_length"),
         ({"polyorder": 2}, "polyorder"),
