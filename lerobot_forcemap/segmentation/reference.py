@@ -130,9 +130,19 @@ def loop_combine(
 
 def loop_peaks(pmf: np.ndarray, floor_level: float, peak_ratio: float, window: int) -> list[int]:
     height = peak_ratio * floor_level
-    cands = [
-        i for i in range(1, len(pmf) - 1) if pmf[i] > pmf[i - 1] and pmf[i] > pmf[i + 1] and pmf[i] >= height
-    ]
+    cands = []
+    i = 1
+    while i < len(pmf) - 1:
+        if pmf[i] > pmf[i - 1]:
+            # a flat top counts as one peak at its middle (lower middle when even), as scipy's find_peaks
+            end = i
+            while end + 1 < len(pmf) - 1 and pmf[end + 1] == pmf[i]:
+                end += 1
+            if pmf[end + 1] < pmf[i] and pmf[i] >= height:
+                cands.append((i + end) // 2)
+            i = end + 1
+        else:
+            i += 1
     accepted: list[int] = []
     for i in sorted(cands, key=lambda c: -pmf[c]):
         if all(abs(i - a) >= window for a in accepted):

@@ -147,3 +147,18 @@ def test_flat_pmf_reproduces_the_papers_segment_counts() -> None:
         counts.append(changepoints.size - 1)
     assert np.mean(counts) == pytest.approx(4.07, abs=0.06)
     assert np.std(counts) == pytest.approx(0.91, abs=0.05)
+
+
+def test_a_flat_topped_peak_is_one_changepoint_at_its_middle_in_library_and_reference():
+    """Two keypoints an odd number of frames apart give a pmf with a two-sample flat top: one peak, at
+    its lower middle (scipy's rule), found by the library and by the per-sample reference loop alike."""
+    from lerobot_forcemap.segmentation.reference import loop_peaks
+
+    pmf, floor = stream_pmf(np.array([110, 159]), 233, 26.0, 1.0)
+    assert pmf[134] == pmf[135] > max(pmf[133], pmf[136])
+    assert peak_changepoints(pmf, floor, 2.0, 26).tolist() == [134]
+    assert loop_peaks(pmf, floor, 2.0, 26) == [134]
+    wide = np.array(
+        [0.1, 0.2, 0.5, 0.5, 0.5, 0.5, 0.2, 0.5, 0.5]
+    )  # 4-wide top; a plateau at the edge is no peak
+    assert peak_changepoints(wide, 0.01, 2.0, 1).tolist() == loop_peaks(wide, 0.01, 2.0, 1) == [3]
