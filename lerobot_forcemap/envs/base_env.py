@@ -256,6 +256,7 @@ class ForceTaskEnv(gym.Env):
         self._status = TaskStatus()
         self._episode_started = True
         self._last_clip = ClipReport()
+        self._clip_gripper = False  # the last step's clip reports, cleared with the episode
         return self._observation(), self._info()
 
     def _tare(self, rows: np.ndarray) -> None:
@@ -422,11 +423,11 @@ class ForceTaskEnv(gym.Env):
             "mean_contact_force_xyz": cs.mean_abs.copy(),
             "contact_force": self._contact.copy(),
             "force_limit": float(self.task_impl.force_limit),
-            "target_clipped": bool(clip.any or getattr(self, "_clip_gripper", False)),
+            "target_clipped": bool(clip.any or self._clip_gripper),
             "clip_workspace": clip.workspace,
             "clip_speed": clip.speed,
             "clip_orientation_invalid": clip.orientation_invalid,
-            "clip_gripper": bool(getattr(self, "_clip_gripper", False)),
+            "clip_gripper": bool(self._clip_gripper),
             "clip_distance": clip.clipped_distance,
             "n_clipped_steps": self._n_clipped,
             "elapsed_s": self._steps * self.control_dt,

@@ -78,4 +78,8 @@ def test_clipping_is_reported_not_silent():
     outside = np.concatenate([[0.0, 0.0, 0.2], obs["ee_pose"][3:], [1.5]])
     _, _, _, _, info = env.step(outside)
     assert info["clip_workspace"] and info["clip_gripper"] and info["n_clipped_steps"] == 2
+    # a new episode starts with no clip reports left over from the last one
+    _, info = env.reset(seed=0)
+    assert not (info["target_clipped"] or info["clip_gripper"] or info["clip_workspace"])
+    assert info["n_clipped_steps"] == 0
     assert env.action_space.shape == (ACTION_DIM,)
