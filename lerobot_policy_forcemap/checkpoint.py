@@ -107,9 +107,14 @@ def check_skill_values(arrays: dict[str, np.ndarray], config: ForceMapConfig, so
                 raise ValueError(f"{source}: tensor {name!r} decreases within segment {s}")
     if np.any(arrays["durations"] <= 0):
         raise ValueError(f"{source}: tensor 'durations' must be > 0, got {arrays['durations'].tolist()}")
-    norms = np.linalg.norm(arrays["orientations"], axis=1)
-    if np.any(np.abs(norms - 1.0) > 1e-6):
-        i = int(np.argmax(np.abs(norms - 1.0)))
-        raise ValueError(
-            f"{source}: tensor 'orientations' row {i} is not a unit quaternion (norm {norms[i]:.6g})"
-        )
+    for name, quats in (
+        ("orientations", arrays["orientations"]),
+        ("anchor_poses", arrays["anchor_poses"][:, 3:7]),  # [x y z qw qx qy qz] per segment
+        ("anchor_initial_poses", arrays["anchor_initial_poses"][:, 3:7]),
+    ):
+        norms = np.linalg.norm(quats, axis=1)
+        if np.any(np.abs(norms - 1.0) > 1e-6):
+            i = int(np.argmax(np.abs(norms - 1.0)))
+            raise ValueError(
+                f"{source}: tensor {name!r} row {i} is not a unit quaternion (norm {norms[i]:.6g})"
+            )

@@ -152,10 +152,13 @@ class ForceMapConfig(PreTrainedConfig):
             path is followed from then on, not only at the segment's end (None: the whole segment).
 
     Learning: ``episodes`` to learn from (default ``[0]``: one shot); several are mapped together
-    segment by segment (their segment counts must agree).
+    segment by segment (their segment counts must agree). This is what selects the demonstration:
+    LeRobot's ``--dataset.episodes`` filters its data loader, which the closed-form fit does not use
+    (LeRobot hands the policy only the dataset's metadata).
 
     Fitted (filled in by the fit; leave at their defaults when configuring): fps, n_segments,
-    segment_n_nodes, segment_n_gripper_nodes, segment_anchors, env_state_names.
+    segment_n_nodes, segment_n_gripper_nodes, segment_anchors, env_state_names, dataset_tasks (the
+    task strings of the fitted episodes; with ``check_task`` an env asking for another task is refused).
     """
 
     # ---- features
@@ -226,6 +229,10 @@ class ForceMapConfig(PreTrainedConfig):
     segment_n_gripper_nodes: list[int] = field(default_factory=list)
     segment_anchors: list[str] = field(default_factory=list)
     env_state_names: list[str] = field(default_factory=list)
+    dataset_tasks: list[str] = field(default_factory=list)
+    #: refuse an env whose task string is not one the demonstrations were recorded for (its
+    #: environment_state would be another scene's objects); off for e.g. a real demonstration in sim
+    check_task: bool = True
 
     # ---- LeRobot plumbing
     normalization_mapping: dict[str, NormalizationMode] = field(
@@ -336,6 +343,19 @@ class ForceMapConfig(PreTrainedConfig):
                 "env_state_names",
                 f"segments are anchored to {sorted(objects)} but no environment-state names are stored",
             )
+            named = set(self.env_state_names)
+            unknown = sorted(o for o in objects if not {f"{o}_x", f"{o}_y", f"{o}_z"} <= named)
+            need(
+                not unknown,
+                "segment_anchors",
+                f"object(s) {unknown} have no position (<obj>_x/_y/_z) in env_state_names {self.env_state_names}",
+            )
+            beyond = sorted(int(k) for k in self.segment_overrides if not 0 <= int(k) < self.n_segments)
+            need(
+                not beyond,
+                "segment_overrides",
+                f"segment(s) {beyond} do not exist: the fit has {self.n_segments} segment(s) (0..{self.n_segments - 1})",
+            )
 
     @property
     def is_fitted(self) -> bool:
@@ -389,6 +409,7 @@ class ForceMapConfig(PreTrainedConfig):
             "segment_n_gripper_nodes",
             "segment_anchors",
             "env_state_names",
+            "dataset_tasks",
         )
 
     @classmethod

@@ -239,13 +239,37 @@ def episodes_from_columns(
 
 def load_episodes(
     repo_id: str, root: str | None, config: ForceMapConfig
-) -> tuple[list[EpisodeArrays], dict, float]:
-    """Read ``config.episodes`` of a LeRobot dataset; returns (episodes, features, fps)."""
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lazy: heavy import
+) -> tuple[list[EpisodeArrays], dict, float, list[str]]:
+    """Read ``config.episodes`` of a LeRobot dataset; returns (episodes, features, fps, the task
+    strings of those episodes)."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset, LeRobotDatasetMetadata  # lazy: heavy import
 
+    # checked on the metadata first: LeRobotDataset given an episode it lacks fails with "Instruction
+    # 'train' corresponds to no data!", or goes looking on the Hub for the missing files
+    total = LeRobotDatasetMetadata(repo_id, root=root).total_episodes
+    missing = sorted(int(e) for e in config.episodes if not 0 <= int(e) < total)
+    if missing:
+        raise ValueError(
+            f"ForceMapConfig.episodes: episode(s) {missing} not in the dataset {root or repo_id} "
+            f"(it has episodes 0..{total - 1})"
+        )
     ds = LeRobotDataset(repo_id, root=root, episodes=sorted(int(e) for e in config.episodes))
     features = ds.meta.features
     keys = [k for k in needed_columns(config, features) if k in ds.hf_dataset.column_names]
     table = ds.hf_dataset.with_format("numpy", columns=keys)
     columns = {k: np.asarray(table[k]) for k in keys}
-    return episodes_from_columns(columns, features, config), dict(features), float(ds.meta.fps)
+    episodes = episodes_from_columns(columns, features, config)
+    return episodes, dict(features), float(ds.meta.fps), episode_tasks(ds.meta, config.episodes)
+
+
+def episode_tasks(meta: Any, episodes: Sequence[int]) -> list[str]:
+    """The task strings (sorted, distinct) of ``episodes`` in a ``LeRobotDatasetMetadata``."""
+    chosen = {int(e) for e in episodes}
+    table = meta.episodes.select_columns(["episode_index", "tasks"]).to_dict()
+    found = {
+        str(t)
+        for e, tasks in zip(table["episode_index"], table["tasks"], strict=True)
+        if int(e) in chosen
+        for t in tasks
+    }
+    return sorted(found)

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 import logging
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -81,6 +82,17 @@ class ForceMapPolicy(PreTrainedPolicy):
             self.fit_dataset(
                 str(dataset_meta.repo_id), None if dataset_meta.root is None else str(dataset_meta.root)
             )
+        elif dataset_meta is not None and config.dataset_tasks:
+            # `lerobot-train --policy.path=CKPT --dataset...`: nothing to fine-tune in a closed-form fit, and
+            # the checkpoint's maps stay as they are, so another task's dataset is an error, not a no-op
+            tasks = sorted(str(t) for t in dataset_meta.tasks.index)
+            if not set(tasks) & set(config.dataset_tasks):
+                raise ValueError(
+                    f"{config.pretrained_path}: fitted on demonstrations of {config.dataset_tasks}, but the dataset "
+                    f"{dataset_meta.root or dataset_meta.repo_id} holds {tasks}; to fit that dataset use "
+                    "--policy.type=forcemap instead of --policy.path (the fit is closed form)"
+                )
+            self._register_skill_buffers(None)
         else:
             self._register_skill_buffers(None)
         self.reset()
@@ -88,13 +100,16 @@ class ForceMapPolicy(PreTrainedPolicy):
     # ---- fitting -------------------------------------------------------------------------------------
     def fit_dataset(self, repo_id: str, root: str | None) -> FitReport:
         """Fit from ``config.episodes`` of the LeRobot dataset (repo_id, root); fills the config's fitted fields."""
-        episodes, features, fps = load_episodes(repo_id, root, self.config)
+        episodes, features, fps, tasks = load_episodes(repo_id, root, self.config)
         env_key = self.config.env_state_key
         names = list(features[env_key].get("names") or []) if env_key in features else []
-        return self.fit_episodes(episodes, fps, names)
+        return self.fit_episodes(episodes, fps, names, tasks)
 
-    def fit_episodes(self, episodes: list, fps: float, env_state_names: list[str]) -> FitReport:
-        """Fit from :class:`~lerobot_policy_forcemap.episodes.EpisodeArrays` (no LeRobot dataset needed)."""
+    def fit_episodes(
+        self, episodes: list, fps: float, env_state_names: list[str], tasks: Sequence[str] = ()
+    ) -> FitReport:
+        """Fit from :class:`~lerobot_policy_forcemap.episodes.EpisodeArrays` (no LeRobot dataset needed);
+        ``tasks``: their task strings (an env asking for another task is refused, ``check_task``)."""
         skill, report = fit_skill(episodes, self.config, fps, env_state_names)
         cfg = self.config
         cfg.fps = float(fps)
@@ -103,11 +118,16 @@ class ForceMapPolicy(PreTrainedPolicy):
         cfg.segment_n_gripper_nodes = [len(s.gripper_nodes) for s in skill.segments]
         cfg.segment_anchors = list(skill.anchors)
         cfg.env_state_names = list(env_state_names)
+        cfg.dataset_tasks = sorted(str(t) for t in tasks)
         cfg.validate_parameters()
         self._register_skill_buffers(skill)
         self.fit_report = report
         logger.info(
-            "forcemap fit: %d segment(s), anchors %s, %.3f s", skill.n_segments, skill.anchors, report.seconds
+            "forcemap fit: episode(s) %s (--policy.episodes), %d segment(s), anchors %s, %.3f s",
+            [e.episode for e in episodes],
+            skill.n_segments,
+            skill.anchors,
+            report.seconds,
         )
         return report
 
@@ -226,6 +246,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         """The skill placed in each batch element's scene (robot pose + object poses of the observation)."""
         cfg, skill = self.config, self.skill
         n = _batch_size(batch)
+        self._check_task(batch)
         robot = _rows(batch, cfg.robot_pose_key, n) if cfg.reanchor else None
         if robot is not None and robot.shape[1] < 7:
             raise ValueError(
@@ -260,6 +281,26 @@ class ForceMapPolicy(PreTrainedPolicy):
                 )
             )
         return placed
+
+    def _check_task(self, batch: dict[str, Any]) -> None:
+        """An env that asks for a task the demonstrations were not recorded for is refused: its
+        environment_state holds another scene's objects, which a width check alone can miss (press
+        and erase both have 8 entries). ``batch["task"]``: one string per element (LeRobot's eval
+        fills it from the env's task_description)."""
+        cfg = self.config
+        asked = batch.get("task")
+        if not (cfg.check_task and cfg.dataset_tasks) or asked is None:
+            return
+        unknown = sorted(
+            {str(t) for t in ([asked] if isinstance(asked, str) else asked)} - set(cfg.dataset_tasks)
+        )
+        if unknown:
+            raise ValueError(
+                f"the env asks for task(s) {unknown}, but this policy was fitted on demonstrations of "
+                f"{cfg.dataset_tasks} (environment_state {cfg.env_state_names}); evaluate it on that task, or "
+                "set check_task=false if the scene is the same under another name (lerobot-eval "
+                "--policy.check_task=false, or in the checkpoint's config.json)"
+            )
 
     def _ensure_placed(self, batch: dict[str, Tensor]) -> list[Reproduction]:
         n = _batch_size(batch)

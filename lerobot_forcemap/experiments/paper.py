@@ -723,7 +723,7 @@ def auto_stream_weights(dataset: str | Path, episode: int, overrides: Sequence[s
 
     cfg = make_config([episode], overrides)
     root = Path(dataset)
-    episodes, _, fps = load_episodes(f"local/{root.name}", str(root), cfg)
+    episodes, _, fps, _ = load_episodes(f"local/{root.name}", str(root), cfg)
     streams = episode_streams(episodes[0], cfg)
     weights = auto_weights(streams, segmentation_config(cfg, fps))
     return {name: float(weights.get(name, 0.0)) for name in cfg.stream_weights}

@@ -103,6 +103,14 @@ def test_non_finite_values(ckpt):
             lambda p: _edit_config(p, stiffness=-1),
             r"config\.json: cannot read the policy config: .*stiffness",
         ),
+        (
+            lambda p: _edit_config(p, segment_anchors=["", "knob"]),
+            r"config\.json: cannot read the policy config: .*segment_anchors.*\['knob'\]",
+        ),
+        (
+            lambda p: _edit_config(p, segment_overrides={"7": {"stiffness": 4000.0}}),
+            r"config\.json: cannot read the policy config: .*segment_overrides: segment\(s\) \[7\] do not exist",
+        ),
         (lambda p: (p / "config.json").unlink(), r"config\.json: file not found"),
         (lambda p: (p / "model.safetensors").unlink(), r"model\.safetensors: file not found"),
     ],
@@ -110,6 +118,17 @@ def test_non_finite_values(ckpt):
 def test_bad_config_json(ckpt, edit, message):
     edit(ckpt)
     with pytest.raises(ValueError, match=message):
+        ForceMapPolicy.from_pretrained(ckpt)
+
+
+@pytest.mark.parametrize("name", ["anchor_poses", "anchor_initial_poses"])
+def test_anchor_poses_need_unit_quaternions(ckpt, name):
+    tensors = load_file(ckpt / "model.safetensors")
+    tensors[name][0] = 0.0
+    save_file(tensors, ckpt / "model.safetensors")
+    with pytest.raises(
+        ValueError, match=rf"model\.safetensors: tensor '{name}' row 0 is not a unit quaternion"
+    ):
         ForceMapPolicy.from_pretrained(ckpt)
 
 

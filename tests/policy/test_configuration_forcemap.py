@@ -78,7 +78,7 @@ def test_json_round_trip_keeps_every_field(tmp_path):
         episodes=[0, 3],
         stiffness=2500.0,
         force_limit=40.0,
-        segment_overrides={2: {"stiffness": 4000.0}},
+        segment_overrides={1: {"stiffness": 4000.0}},
         gripper_time_scale=1.5,
         gripper_nodes_per_second=12.0,
         anchor_by_moved_object=True,
@@ -89,6 +89,8 @@ def test_json_round_trip_keeps_every_field(tmp_path):
         segment_n_gripper_nodes=[5, 9],
         segment_anchors=["", "button"],
         env_state_names=["button_x", "button_y", "button_z"],
+        dataset_tasks=["Press the button."],
+        check_task=False,
         fps=20.0,
     )
     cfg._save_pretrained(tmp_path)

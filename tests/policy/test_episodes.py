@@ -56,6 +56,18 @@ def test_unknown_episode_lists_the_available_ones(columns):
         episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", episodes=[5]))
 
 
+@pytest.mark.parametrize("episodes", [[99], [0, 99]])
+def test_episode_missing_from_a_dataset_on_disk_is_named_before_loading(press_dataset, episodes, monkeypatch):
+    """Not LeRobot's "Instruction 'train' corresponds to no data!", nor a trip to the Hub."""
+    from lerobot_policy_forcemap.episodes import load_episodes
+
+    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
+    with pytest.raises(
+        ValueError, match=r"ForceMapConfig.episodes: episode\(s\) \[99\] not in the dataset .*0\.\.\d"
+    ):
+        load_episodes("local/press", str(press_dataset), ForceMapConfig(device="cpu", episodes=episodes))
+
+
 def test_zero_quaternion_is_rejected(columns):
     cols, feats = columns
     cols["action"][3, 3:7] = 0.0

@@ -116,6 +116,43 @@ def test_missing_observation_and_unfitted_policy_are_clear_errors(policy):
         empty.select_action(_scene())
 
 
+def test_an_env_of_another_task_is_refused(policy):
+    """Erase's environment_state has press's width (8): only the task string tells the scenes apart."""
+    press = "Press the red button until it clicks, then let go."
+    assert policy.config.dataset_tasks == [press]
+    obs = _scene()
+    policy.reset()
+    policy.select_action({**obs, "task": [press]})  # LeRobot's eval passes the env's task_description
+    policy.reset()
+    with pytest.raises(ValueError, match=r"asks for task\(s\) \['Wipe the blue S off.*check_task=false"):
+        policy.select_action({**obs, "task": ["Wipe the blue S off the whiteboard with the eraser."]})
+    policy.config.check_task = False
+    try:
+        policy.reset()
+        policy.select_action({**obs, "task": ["Wipe the blue S off the whiteboard with the eraser."]})
+    finally:
+        policy.config.check_task = True
+
+
+def test_a_checkpoint_is_not_refitted_on_another_tasks_dataset(press_checkpoint, press_dataset):
+    """``lerobot-train --policy.path=CKPT --dataset.root=datasets/erase`` would re-save the press maps."""
+    from lerobot.configs.policies import PreTrainedConfig
+    from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
+
+    from tests.conftest import REPO_ROOT
+
+    cfg = PreTrainedConfig.from_pretrained(press_checkpoint)
+    cfg.pretrained_path = press_checkpoint
+    ForceMapPolicy(
+        cfg, dataset_meta=LeRobotDatasetMetadata("local/press", root=press_dataset)
+    )  # same task: fine
+    erase = LeRobotDatasetMetadata("local/erase", root=REPO_ROOT / "datasets" / "erase")
+    with pytest.raises(
+        ValueError, match=r"fitted on demonstrations of \['Press.*holds \['Wipe.*--policy.type=forcemap"
+    ):
+        ForceMapPolicy(cfg, dataset_meta=erase)
+
+
 def test_multi_episode_fit_with_dataset_phases(press_dataset, tmp_path):
     pol = fit_and_save(
         press_dataset,
