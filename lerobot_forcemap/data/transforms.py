@@ -155,13 +155,21 @@ class AlignedRecording:
 
 
 def clean_times(
-    stream: str, times: ArrayLike, values: ArrayLike, *, on_duplicate: DuplicatePolicy = "merge"
+    stream: str,
+    times: ArrayLike,
+    values: ArrayLike,
+    *,
+    on_duplicate: DuplicatePolicy = "merge",
+    quaternion_columns: slice | None = None,
 ) -> tuple[F64, F64, TimeCleaning]:
     """Collapse runs of equal timestamps (mean of their values); reject timestamps going backwards.
 
-    times (T,), values (T, k) -> (times (T',), values (T', k), TimeCleaning). Raises ``ValueError``
-    naming ``stream`` and the sample index for NaN/inf times, a decreasing time, fewer than 2
-    distinct times, or any repeated time when ``on_duplicate="raise"``.
+    times (T,), values (T, k) -> (times (T',), values (T', k), TimeCleaning). ``quaternion_columns``:
+    the columns holding a unit quaternion; within a run each is flipped to the sign of the run's first
+    before the mean (q and −q are one rotation, and a recorder's sign flip would average them to ~0),
+    and the mean is renormalised. Raises ``ValueError`` naming ``stream`` and the sample index for
+    NaN/inf times, a decreasing time, fewer than 2 distinct times, or any repeated time when
+    ``on_duplicate="raise"``.
     """
     t = np.asarray(times, dtype=np.float64)
     v = np.asarray(values, dtype=np.float64)
@@ -191,9 +199,18 @@ def clean_times(
         starts = np.concatenate([[True], ~dup])  # first sample of each run of equal times
         group = np.cumsum(starts) - 1
         counts = np.bincount(group).astype(np.float64)
+        if quaternion_columns is not None:
+            v = v.copy()
+            q = v[:, quaternion_columns]
+            first = q[np.flatnonzero(starts)][group]  # each sample's run-first quaternion
+            q[np.einsum("ij,ij->i", q, first) < 0] *= -1.0
+            v[:, quaternion_columns] = q
         sums = np.zeros((group[-1] + 1, v.shape[1]))
         np.add.at(sums, group, v)
         t_out, v_out = t[starts], sums / counts[:, None]
+        if quaternion_columns is not None:
+            q = v_out[:, quaternion_columns]
+            v_out[:, quaternion_columns] = q / np.linalg.norm(q, axis=1, keepdims=True)
     else:
         t_out, v_out = t, v
     if len(t_out) < 2:
@@ -366,7 +383,13 @@ def align_recording(
     cleaned: dict[str, tuple[F64, F64]] = {}
     cleaning: list[TimeCleaning] = []
     for stream, (t, v) in rec.streams.items():
-        tc, vc, info = clean_times(f"{rec.name}/{stream}", t, v, on_duplicate=on_duplicate)
+        tc, vc, info = clean_times(
+            f"{rec.name}/{stream}",
+            t,
+            v,
+            on_duplicate=on_duplicate,
+            quaternion_columns=slice(3, 7) if stream == "pose" else None,  # x y z | quaternion (4)
+        )
         cleaned[stream] = (tc, vc)
         cleaning.append(info)
         if info.duplicates_collapsed:

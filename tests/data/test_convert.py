@@ -186,6 +186,16 @@ def test_bad_inputs_name_field_episode_and_frame(tmp_path):
     assert res.episodes[0]["duplicate_timestamps_collapsed"]["joint"] == 2
     with pytest.raises(ValueError, match=r"stream 'dup/joint': sample 11 repeats the timestamp of sample 10"):
         convert_recordings([dup], tmp_path / "dup2", fps=20, progress=False, on_duplicate="raise")
+    # ... also where the recorder flips the quaternion's sign (q, −q at one time): the same rotation
+    st = make_streams(n=100)
+    st["t"][51] = st["t"][50]
+    st["quat"][51:] *= -1.0  # mid-contact: a wrong rotation would turn the 20 N sideways
+    flip = convert_recordings(
+        [write_recorder_file(tmp_path / "flip.h5", st)], tmp_path / "flip", fps=20, progress=False
+    )
+    plain = convert_recordings([good], tmp_path / "plain", fps=20, progress=False)
+    forces = [columns(load(r.root), "observation.force")[:, :3] for r in (flip, plain)]
+    np.testing.assert_allclose(forces[0], forces[1], atol=0.5)
     # ... while a timestamp going backwards is an error naming the stream and sample.
     st["t"][50] = st["t"][40]
     back = write_recorder_file(tmp_path / "back.h5", st)

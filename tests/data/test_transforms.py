@@ -43,6 +43,19 @@ def test_clean_times_collapses_duplicates_and_rejects_backwards():
         clean_times("x", [1.0, 1.0, 1.0], np.zeros((3, 1)))
 
 
+def test_repeated_pose_timestamp_at_a_quaternion_sign_flip_merges_to_that_rotation():
+    """Recorders flip q to −q now and then (the UR5e files do 4-5 times each); a repeated timestamp
+    right there must not average the two signs to a near-zero quaternion."""
+    q = np.array([0.6060264, 0.65215856, 0.37278298, -0.26163736])
+    q /= np.linalg.norm(q)
+    pose = np.array([[0.1, 0.2, 0.3, *q], [0.1, 0.2, 0.3, *(-q)], [0.1, 0.2, 0.31, *(-q)]])
+    t, v, info = clean_times("demo/pose", [0.0, 0.0, 0.02], pose, quaternion_columns=slice(3, 7))
+    assert info.duplicates_collapsed == 1 and len(t) == 2
+    np.testing.assert_allclose(v[0], [0.1, 0.2, 0.3, *q], atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(v[:, 3:], axis=1), 1.0, atol=1e-12)
+    np.testing.assert_array_equal(v[1], pose[2])  # a single sample passes unchanged
+
+
 def test_wrench_to_base_rotation_law():
     q = rotvec_to_quat(np.array([[np.pi / 2, 0, 0], [0, 0, 0]]))  # 90° about x, identity
     f = np.array([[0.0, 1.0, 0.0], [1.0, 2.0, 3.0]])
