@@ -219,7 +219,9 @@ def convert_episodes(
     """Write every source as one episode of a new LeRobot v3 dataset at ``out``.
 
     The feature set follows the first source (finger force iff it has one); a later source that does
-    not match raises ``ValueError`` naming it. ``out`` must not exist unless ``overwrite``.
+    not match raises ``ValueError`` naming it. ``out`` must not exist unless ``overwrite``; the dataset
+    is written next to it (``.<name>.partial``) and replaces it only once complete, so a failed run
+    leaves an existing ``out`` as it was.
     """
     from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lazy: heavy import
 
@@ -227,11 +229,11 @@ def convert_episodes(
     if not float(fps).is_integer() or fps <= 0:
         raise ValueError(f"fps must be a positive integer (LeRobot stores an int), got {fps}")
     fps = int(fps)
-    if out.exists():
-        if not overwrite:
-            raise ValueError(f"output {out} exists (use overwrite=True / --overwrite)")
-        shutil.rmtree(out)
+    if out.exists() and not overwrite:
+        raise ValueError(f"output {out} exists (use overwrite=True / --overwrite)")
     out.parent.mkdir(parents=True, exist_ok=True)
+    work = out.parent / f".{out.name}.partial"
+    shutil.rmtree(work, ignore_errors=True)  # left by a run that was killed
 
     import datasets as hf_datasets
 
@@ -256,7 +258,7 @@ def convert_episodes(
                     source_timestamp=True,
                 )
                 dataset = LeRobotDataset.create(
-                    repo_id, fps=fps, features=features, root=out, robot_type=robot_type, use_videos=False
+                    repo_id, fps=fps, features=features, root=work, robot_type=robot_type, use_videos=False
                 )
             if (rec.finger_force is not None) != finger:
                 raise ValueError(
@@ -287,7 +289,7 @@ def convert_episodes(
     except BaseException:
         if dataset is not None:  # close the writers, then remove the half-written dataset
             dataset.finalize()
-            shutil.rmtree(out, ignore_errors=True)
+        shutil.rmtree(work, ignore_errors=True)
         raise
     finally:
         if bars_were_on:
@@ -301,9 +303,9 @@ def convert_episodes(
         "wrench_sign": LAB_WRENCH_SIGN,
         "on_duplicate_timestamps": on_duplicate,
     }
-    (out / SOURCES_FILE).write_text(json.dumps({"settings": settings, "episodes": records}, indent=1))
+    (work / SOURCES_FILE).write_text(json.dumps({"settings": settings, "episodes": records}, indent=1))
     _write_card(
-        out,
+        work,
         records,
         features,
         fps=fps,
@@ -314,7 +316,28 @@ def convert_episodes(
         extra=card_extra,
         finger_force_units=finger_force_units,
     )
+    _replace_dir(out, work)
     return ConversionResult(out, repo_id, fps, len(records), n_frames, records)
+
+
+def _replace_dir(out: Path, new: Path) -> None:
+    """Move the finished dataset ``new`` to ``out``, replacing what is there."""
+    if out.exists():
+        old = out.parent / f".{out.name}.old"
+        shutil.rmtree(old, ignore_errors=True)
+        out.rename(old)
+        new.rename(out)
+        shutil.rmtree(old)
+    else:
+        new.rename(out)
+
+
+def _refuse_output_holding_inputs(out: str | Path, inputs: Sequence[Path]) -> None:
+    """Replacing ``out`` would delete an input inside it."""
+    root = Path(out).resolve()
+    for p in inputs:
+        if p.resolve().is_relative_to(root):
+            raise ValueError(f"output {out} contains the input {p}; write the dataset somewhere else")
 
 
 def _with_warning(a: AlignedRecording, msg: str) -> AlignedRecording:
@@ -384,6 +407,7 @@ def convert_recordings(
     for p in paths:
         if not p.is_file():
             raise ValueError(f"input file not found: {p}")
+    _refuse_output_holding_inputs(out, paths)
 
     def sources():
         for p in paths:
@@ -407,6 +431,7 @@ def convert_gbti(
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"GBTI file not found: {path}")
+    _refuse_output_holding_inputs(out, [path])
     key_list = (
         gbti_keys(path) if keys is None else [k if isinstance(k, GbtiKey) else GbtiKey.parse(k) for k in keys]
     )

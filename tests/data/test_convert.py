@@ -170,6 +170,22 @@ def test_bad_inputs_name_field_episode_and_frame(tmp_path):
     convert_recordings([good], tmp_path / "exists", fps=20, progress=False)
     with pytest.raises(ValueError, match="exists"):
         convert_recordings([good], tmp_path / "exists", fps=20, progress=False)
+    # --overwrite replaces the old dataset only once the new one is complete: a failing input leaves it
+    before = sorted(p.relative_to(tmp_path) for p in (tmp_path / "exists").rglob("*"))
+    with pytest.raises(ValueError, match="sample 42"):
+        convert_recordings([good, bad], tmp_path / "exists", fps=20, progress=False, overwrite=True)
+    assert sorted(p.relative_to(tmp_path) for p in (tmp_path / "exists").rglob("*")) == before
+    assert not list(tmp_path.glob(".exists*"))
+    assert (
+        convert_recordings(
+            [good, good], tmp_path / "exists", fps=20, progress=False, overwrite=True
+        ).n_episodes
+        == 2
+    )
+    assert load(tmp_path / "exists").meta.total_episodes == 2
+    with pytest.raises(ValueError, match="contains the input"):
+        convert_recordings([good], tmp_path, fps=20, progress=False, overwrite=True)
+    assert good.is_file()
     with pytest.raises(ValueError, match="positive integer"):
         convert_recordings([good], tmp_path / "x", fps=12.5, progress=False)
     with pytest.raises(ValueError, match="not found"):
