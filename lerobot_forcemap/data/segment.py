@@ -34,7 +34,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from lerobot_forcemap import layout
-from lerobot_forcemap.data.schema import SEGMENT_INDEX_FEATURE
+from lerobot_forcemap.data.schema import SEGMENT_INDEX_FEATURE, require_dataset_root
 from lerobot_forcemap.segmentation import SegmentationConfig, SegmentationResult, Stream, segment_streams
 
 __all__ = [
@@ -157,7 +157,8 @@ def segment_dataset(
     progress: bool = True,
 ) -> list[EpisodeSegments]:
     """Segment the episodes (all, or ``episodes``) of the dataset at ``root``; write them back if ``write``."""
-    root = Path(root)
+    # checked first: LeRobotDataset would create a missing folder and then look for it on the Hub
+    root = require_dataset_root(root, "--dataset")
     if style not in SUBTASK_STYLES:
         raise ValueError(f"style must be one of {SUBTASK_STYLES}, got {style!r}")
     ds = _load(root, repo_id)

@@ -114,6 +114,13 @@ def test_bad_input(dataset):
         segment_dataset(dataset, config=SegmentationConfig(window=201, min_run=5), progress=False)
 
 
+def test_a_folder_that_is_no_dataset_is_named_and_left_alone(tmp_path):
+    """Not LeRobot's Hub lookup for 'local/forcemap', and no empty folder created on the way."""
+    with pytest.raises(ValueError, match=r"--dataset .*nope: not a LeRobot dataset \(no meta/info.json\)"):
+        segment_dataset(tmp_path / "nope", config=CONFIG, progress=False)
+    assert not (tmp_path / "nope").exists()
+
+
 def test_streams_from_features():
     from lerobot_forcemap.data.schema import dataset_features
 
