@@ -88,6 +88,10 @@ UNITS: Final[dict[str, str]] = {
     OBS_FINGER_FORCE: "N per fingertip (3-D vectors flattened, or a scalar normal force per finger)",
     ACTION: "x y z m, qw qx qy qz unit quaternion, base frame; gripper 0 (open) .. 1 (closed)",
     SOURCE_TIMESTAMP: "s, time of the source recording (before resampling)",
+    SEGMENT_INDEX: "motion segment of the frame, 0-based, steps of 1 (`forcemap segment`, or a demonstrator's phase)",
+    # LeRobot 0.6's language columns; `forcemap segment` writes one subtask row per segment and style
+    "language_persistent": "LeRobot subtask rows, 'segment k of n' per segmentation style",
+    "language_events": "LeRobot language events (none written by forcemap)",
 }
 
 

@@ -68,7 +68,7 @@ SOURCES_FILE = "meta/forcemap_sources.json"
 GBTI_TASKS = {"Cube": "grasp the cube", "Mug": "grasp the mug", "Plate": "grasp the plate"}
 FINGER_FORCE_NAMES = layout.finger_force_names(1, axes="")  # ("f0",): one scalar sensor
 FINGER_FORCE_UNITS = (
-    "raw finger-force sensor counts, uncalibrated and not tared (GBTI: about 360-380 with no contact, "
+    "raw finger-force sensor counts, uncalibrated and not tared (GBTI: about 320-390 with no contact, "
     "up to ~1100 when squeezing; the Mug/User4 demos read -645 at rest and up to 28283)"
 )
 KNOWN_TASKS = {
@@ -315,6 +315,8 @@ def convert_episodes(
         repo_id=repo_id,
         extra=card_extra,
         finger_force_units=finger_force_units,
+        tare=tare,
+        gripper_full_scale=gripper_full_scale,
     )
     _replace_dir(out, work)
     return ConversionResult(out, repo_id, fps, len(records), n_frames, records)
@@ -346,19 +348,43 @@ def _with_warning(a: AlignedRecording, msg: str) -> AlignedRecording:
     return replace(a, warnings=(*a.warnings, msg))
 
 
+_TARE_WINDOW = {
+    "auto": "start window if the sensor is quiet there, force std < 0.5 N, else the end window",
+    "start": "the first 0.2 s",
+    "end": "the last 0.2 s",
+}
+
+
 def _write_card(
-    out: Path, records, features, *, fps, title, source_text, robot, repo_id, extra, finger_force_units
+    out: Path,
+    records,
+    features,
+    *,
+    fps,
+    title,
+    source_text,
+    robot,
+    repo_id,
+    extra,
+    finger_force_units,
+    tare,
+    gripper_full_scale,
 ):
     lowpass = sorted({r["force_lowpass_hz"] for r in records}, key=lambda x: (x is None, x))
+    if tare == "none":
+        tare_note = "none (`--tare none`): `observation.force` keeps the sensor's bias"
+    else:
+        tare_note = (
+            f"wrist wrench minus the median over a 0.2 s rest window in the tool frame ({_TARE_WINDOW[tare]}); "
+            f"window and bias per episode in `{SOURCES_FILE}`"
+        )
     notes: dict[str, Any] = {
         "Resampling": f"every stream linearly interpolated (orientations by SLERP) to {fps} Hz inside the interval "
         "all streams cover; `source_timestamp` gives each frame's time in the source recording",
-        "Tare": "wrist wrench minus the median over a 0.2 s rest window in the tool frame (start window if the "
-        "sensor is quiet there, force std < 0.5 N, else the end window); window and bias per episode in "
-        f"`{SOURCES_FILE}`",
-        "Wrench frame and sign": "tared tool-frame wrench rotated to the base frame with the recorded flange "
-        "orientation; the recorder already reports the reaction on the robot (sign +1: pressing a button reads "
-        "+z, away from the surface)",
+        "Tare": tare_note,
+        "Wrench frame and sign": f"{'' if tare == 'none' else 'tared '}tool-frame wrench rotated to the base "
+        "frame with the recorded flange orientation; the recorder already reports the reaction on the robot "
+        "(sign +1: pressing a button reads +z, away from the surface)",
         "Low-pass": f"zero-phase 2nd-order Butterworth on the base-frame wrench at the source rate before "
         f"resampling, cutoff {', '.join('none' if x is None else f'{x:g} Hz' for x in lowpass)}",
         "Kinesthetic teaching": "the wrist sensor also measures the guiding hand's force on the tool while the "
@@ -368,7 +394,8 @@ def _write_card(
         "(the last frame holds its own)",
         "Joints": "observation.state joints in kinematic order (shoulder_pan .. wrist_3), reordered from the "
         "recorder's alphabetical ROS order",
-        "Gripper": "opening normalised raw/100 (0 open .. 1 closed); recordings without a gripper stream get 0",
+        "Gripper": f"opening normalised raw/{gripper_full_scale:g} (0 open .. 1 closed); recordings without a "
+        "gripper stream get 0",
     }
     notes.update(extra or {})
     episodes_md = ["| episode | source | task | frames | tare window |", "|---|---|---|---|---|"]
@@ -383,6 +410,10 @@ def _write_card(
         else {}
     )
     units[layout.OBS_EE_POSE] = "flange (tool0) position m; quaternion w x y z (unit); base frame"
+    if tare == "none":
+        units[layout.OBS_FORCE] = layout.UNITS[layout.OBS_FORCE].replace(
+            "tared", "not tared (sensor bias kept)"
+        )
     units[layout.SOURCE_TIMESTAMP] = "s since the first sample of the source recording"
     write_dataset_card(
         out,

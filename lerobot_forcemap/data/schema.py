@@ -32,6 +32,7 @@ __all__ = [
     "add_episode",
     "card_markdown",
     "write_dataset_card",
+    "refresh_dataset_card",
     "require_dataset_root",
 ]
 
@@ -352,9 +353,22 @@ def write_dataset_card(
 
     The description is also stored in ``<root>/meta/forcemap_card.json`` so that
     :func:`lerobot_forcemap.data.hub.push_dataset` pushes the same card to the Hub (LeRobot's
-    ``push_to_hub`` regenerates README.md from the template). Reads ``meta/info.json`` for the features.
+    ``push_to_hub`` regenerates README.md from the template), with the arguments, so that
+    :func:`refresh_dataset_card` can rebuild it when the features change. Reads ``meta/info.json``
+    for the features.
     """
     root = require_dataset_root(root)
+    inputs = dict(
+        title=title,
+        source=source,
+        robot=robot,
+        units=dict(units or {}),
+        frames=frames,
+        extra=extra if extra is None or isinstance(extra, str) else dict(extra),
+        tags=list(tags or ()),
+        license=license,
+        repo_id=repo_id,
+    )
     info = json.loads((root / "meta" / "info.json").read_text())
     features = {k: v for k, v in info["features"].items() if k not in LEROBOT_AUTO_KEYS}
     description = card_markdown(
@@ -362,7 +376,10 @@ def write_dataset_card(
     )
     card_tags = sorted({"forcemap", "force", "wrench", *(tags or ())})
     (root / "meta" / "forcemap_card.json").write_text(
-        json.dumps({"dataset_description": description, "tags": card_tags, "license": license}, indent=2)
+        json.dumps(
+            {"dataset_description": description, "tags": card_tags, "license": license, "inputs": inputs},
+            indent=2,
+        )
     )
     from lerobot.datasets.io_utils import load_info  # lazy: heavy import
     from lerobot.datasets.utils import create_lerobot_dataset_card
@@ -377,3 +394,14 @@ def write_dataset_card(
     path = root / "README.md"
     card.save(str(path))
     return path
+
+
+def refresh_dataset_card(root: str | Path) -> Path | None:
+    """Rebuild the card of :func:`write_dataset_card` from its stored arguments and the current
+    ``meta/info.json`` (e.g. after ``forcemap segment`` added columns); ``None`` when the dataset has
+    no card written by this package (or one from before the arguments were stored)."""
+    path = Path(root) / "meta" / "forcemap_card.json"
+    if not path.is_file():
+        return None
+    inputs = json.loads(path.read_text()).get("inputs")
+    return None if inputs is None else write_dataset_card(root, **inputs)

@@ -34,7 +34,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from lerobot_forcemap import layout
-from lerobot_forcemap.data.schema import SEGMENT_INDEX_FEATURE, require_dataset_root
+from lerobot_forcemap.data.schema import SEGMENT_INDEX_FEATURE, refresh_dataset_card, require_dataset_root
 from lerobot_forcemap.segmentation import SegmentationConfig, SegmentationResult, Stream, segment_streams
 
 __all__ = [
@@ -302,6 +302,7 @@ def write_segments(
     }
     write_info(info, root)
     _write_segment_stats(root)
+    refresh_dataset_card(root)  # the card's feature table gains segment_index and the language columns
 
 
 def _event_row_type():

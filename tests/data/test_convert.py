@@ -105,6 +105,16 @@ def test_synthetic_round_trip_and_transforms(tmp_path):
     np.testing.assert_allclose(item[layout.OBS_FORCE].numpy(), force[5])
 
 
+def test_card_says_what_the_conversion_did(tmp_path):
+    path = write_recorder_file(tmp_path / "press_0.h5", make_streams(n=200))
+    convert_recordings([path], tmp_path / "raw", fps=25, progress=False, tare="none", gripper_full_scale=90.0)
+    card = (tmp_path / "raw" / "README.md").read_text()
+    assert "not tared (sensor bias kept)" in card and "keeps the sensor's bias" in card
+    assert "raw/90 " in card and "raw/100" not in card and "base frame; tared;" not in card
+    convert_recordings([path], tmp_path / "end", fps=25, progress=False, tare="end")
+    assert "(the last 0.2 s)" in (tmp_path / "end" / "README.md").read_text()
+
+
 def test_real_press_file_round_trip_and_force_up(shared_data, tmp_path):
     path = shared_data / "ur5e" / "press_2023-07-27_160905.h5"
     convert_recordings([path], tmp_path / "press", fps=50, progress=False)  # 711 frames

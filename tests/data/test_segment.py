@@ -76,6 +76,17 @@ def test_round_trip_through_lerobot(dataset):
     assert ds.meta.total_frames == sum(len(s.labels) for s in segs)
 
 
+def test_the_card_lists_the_columns_segmenting_adds(dataset):
+    assert "segment_index" not in (dataset / "README.md").read_text()
+    segment_dataset(dataset, config=CONFIG, progress=False)
+    card = (dataset / "README.md").read_text()
+    assert f"| `{layout.SEGMENT_INDEX}` | int64 |" in card and "motion segment of the frame" in card
+    assert "| `language_persistent` |" in card
+    described = json.loads((dataset / "meta" / "forcemap_card.json").read_text())["dataset_description"]
+    assert f"`{layout.SEGMENT_INDEX}`" in described  # what push_dataset sends to the Hub
+    assert "press_1.h5" in card  # the rest of the card is kept
+
+
 def test_styles_coexist_and_rerun_replaces(dataset):
     write_segments(
         dataset, {0: np.r_[np.zeros(100, int), np.ones(50, int)], 1: np.zeros(170, int)}, style="motion"
