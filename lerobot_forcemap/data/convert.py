@@ -265,16 +265,19 @@ def convert_episodes(
                     f"episode {index} ({src.source}): finger force {'missing' if finger else 'present'}, unlike "
                     f"the first episode; convert these recordings into separate datasets"
                 )
-            rate = float(1.0 / np.median(np.diff(rec.wrench_time)))
-            lowpass = resolve_lowpass_hz(force_lowpass_hz, fps, rate)
-            a = align_recording(
-                rec,
-                fps=fps,
-                tare=tare,
-                gripper_full_scale=gripper_full_scale,
-                force_lowpass_hz=lowpass,
-                on_duplicate=on_duplicate,
-            )
+            try:
+                rate = float(1.0 / np.median(np.diff(rec.wrench_time)))
+                lowpass = resolve_lowpass_hz(force_lowpass_hz, fps, rate)
+                a = align_recording(
+                    rec,
+                    fps=fps,
+                    tare=tare,
+                    gripper_full_scale=gripper_full_scale,
+                    force_lowpass_hz=lowpass,
+                    on_duplicate=on_duplicate,
+                )
+            except ValueError as err:
+                raise ValueError(f"episode {index} ({src.source}): {err}") from None
             if rec.gripper is None:
                 msg = f"no gripper stream: observation.state gripper and action gripper set to {layout.GRIPPER_OPEN} (open)"
                 warnings.warn(f"{rec.name}: {msg}", stacklevel=2)
@@ -466,6 +469,9 @@ def convert_gbti(
     key_list = (
         gbti_keys(path) if keys is None else [k if isinstance(k, GbtiKey) else GbtiKey.parse(k) for k in keys]
     )
+    repeated = sorted({str(k) for k in key_list if key_list.count(k) > 1})
+    if repeated:
+        raise ValueError(f"GBTI keys given more than once: {repeated}")
 
     def sources():
         for key, rec in iter_gbti_demos(path, key_list):
@@ -532,8 +538,8 @@ def run(args: argparse.Namespace) -> int:
     if lowpass != "auto":
         try:
             lowpass = float(lowpass) or None
-        except ValueError as err:
-            raise SystemExit(f"--force-lowpass-hz must be a number or 'auto', got {lowpass!r}") from err
+        except ValueError:
+            raise ValueError(f"--force-lowpass-hz must be a number or 'auto', got {lowpass!r}") from None
     common = dict(
         repo_id=args.repo_id,
         fps=args.fps,
@@ -545,11 +551,11 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.gbti:
         if len(args.inputs) != 1:
-            raise SystemExit("--gbti takes exactly one INPUT file")
+            raise ValueError("--gbti takes exactly one INPUT file")
         result = convert_gbti(args.inputs[0], args.out, keys=args.gbti_keys, task=args.task, **common)
     else:
         if args.gbti_keys:
-            raise SystemExit("--gbti-keys needs --gbti")
+            raise ValueError("--gbti-keys needs --gbti")
         result = convert_recordings(args.inputs, args.out, task=args.task, **common)
     size = sum(p.stat().st_size for p in result.root.rglob("*") if p.is_file())
     print(

@@ -236,19 +236,34 @@ def read_recording(path_or_group: str | Path | h5py.Group, name: str | None = No
     path = Path(path_or_group)
     if not path.is_file():
         raise ValueError(f"recording file not found: {path}")
-    with h5py.File(path, "r") as f:
+    with _open_h5(path) as f:
         return _read_group(f, name or path.stem)
+
+
+def _open_h5(path: Path) -> h5py.File:
+    """``h5py.File(path, "r")``; a file that is not HDF5 is a ``ValueError`` naming it."""
+    try:
+        return h5py.File(path, "r")
+    except OSError as err:
+        raise ValueError(f"{path}: not a readable HDF5 file ({err})") from None
 
 
 def gbti_keys(path: str | Path) -> list[GbtiKey]:
     """All demo keys of a GBTI file, sorted by object, user, position."""
     keys = []
-    with h5py.File(path, "r") as f:
+    with _open_h5(Path(path)) as f:
         for obj in f:
             if not isinstance(f[obj], h5py.Group):
                 continue
             for user in f[obj]:
+                if not isinstance(f[obj][user], h5py.Group):
+                    continue
                 for pos in f[obj][user]:
+                    if not isinstance(f[obj][user][pos], h5py.Group) or "wrench_info" not in f[obj][user][pos]:
+                        raise ValueError(
+                            f"{path}: {obj}/{user}/{pos} is not a GBTI demo group (not a GBTI file? a lab-"
+                            "recorder file is converted without --gbti)"
+                        )
                     keys.append(GbtiKey.parse(f"{obj}/{user}/{pos}"))
     if not keys:
         raise ValueError(f"{path}: no /Object/UserN/PositionM groups (not a GBTI file?)")
@@ -263,7 +278,7 @@ def iter_gbti_demos(
     if not path.is_file():
         raise ValueError(f"GBTI file not found: {path}")
     keys = gbti_keys(path) if keys is None else list(keys)
-    with h5py.File(path, "r") as f:
+    with _open_h5(path) as f:
         for key in keys:
             if str(key) not in f:
                 raise ValueError(f"{path}: missing GBTI demo group {str(key)!r}")

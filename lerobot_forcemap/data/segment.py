@@ -400,8 +400,8 @@ def _parse_pairs(items: Sequence[str] | None, what: str) -> dict[str, float]:
             if not sep:
                 raise ValueError
             out[name.strip()] = float(value)
-        except ValueError as err:
-            raise SystemExit(f"--{what} takes name=value pairs, got {item!r}") from err
+        except ValueError:
+            raise ValueError(f"--{what} takes name=value pairs, got {item!r}") from None
     return out
 
 

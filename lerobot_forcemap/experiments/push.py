@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
         url = push_dataset(args.dataset, args.repo_id, private=private, tags=args.tags)
     else:
         if args.tags:
-            raise SystemExit("forcemap push: --tag applies to datasets only")
+            raise ValueError("--tag applies to datasets only")
         url = push_policy(args.policy, args.repo_id, private=private)
     print(f"pushed to {url}")
     return 0

@@ -128,6 +128,29 @@ def test_real_press_file_round_trip_and_force_up(shared_data, tmp_path):
     assert 15.0 < force[i, 2] < 35.0 and force[i, 2] > 0.8 * np.linalg.norm(force[i, :3])
 
 
+def test_wrong_kind_of_input_is_named(tmp_path):
+    good = write_recorder_file(tmp_path / "press_0.h5", make_streams(n=200))
+    text = tmp_path / "notes.h5"
+    text.write_text("not hdf5")
+    with pytest.raises(ValueError, match=r"notes\.h5: not a readable HDF5 file"):
+        convert_recordings([good, text], tmp_path / "a", fps=20, progress=False)
+    with pytest.raises(
+        ValueError, match=r"press_0\.h5: no /Object/UserN/PositionM groups \(not a GBTI file\?\)"
+    ):
+        convert_gbti(good, tmp_path / "b", progress=False)
+    gbti = write_gbti_file(tmp_path / "g.h5", [("Cube", 1, 1)], n=100)
+    with pytest.raises(ValueError, match=r"given more than once: \['Cube/User1/Position1'\]"):
+        convert_gbti(
+            gbti, tmp_path / "c", keys=["Cube/User1/Position1", "/Cube/User1/Position1/"], progress=False
+        )
+    # an align error names the episode and its source among several: 100 Hz is above the second
+    # file's Nyquist frequency (150 Hz sampling), not the first's
+    fast = write_recorder_file(tmp_path / "press_fast.h5", make_streams(n=600, rate=1000.0))
+    slow = write_recorder_file(tmp_path / "press_1.h5", make_streams(n=200, rate=150.0))
+    with pytest.raises(ValueError, match=r"episode 1 \(.*press_1\.h5\): cutoff 100"):
+        convert_recordings([fast, slow], tmp_path / "d", fps=20, progress=False, force_lowpass_hz=100.0)
+
+
 def test_gbti_subset_via_cli(shared_data, tmp_path):
     path = shared_data / "gbti" / "Grasping_Demos.h5"
     keys = ["Cube/User3/Position2", "Mug/User1/Position1"]

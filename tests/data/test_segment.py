@@ -175,5 +175,5 @@ def test_cli(dataset, capsys):
     assert rc == 0 and "episode 1:" in capsys.readouterr().out
     ds = load(dataset)
     assert set(read_segment_index(ds)) == {0, 1}
-    with pytest.raises(SystemExit, match="name=value"):
+    with pytest.raises(ValueError, match="name=value"):
         forcemap_main(["segment", "--dataset", str(dataset), "--weights", "joints"])
