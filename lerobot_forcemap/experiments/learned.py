@@ -269,30 +269,10 @@ def train_settings(
     }
 
 
-def train_command(
-    method: str,
-    dataset_root: str | Path,
-    output_dir: str | Path,
-    *,
-    steps: int,
-    config: dict[str, Any],
-    batch_size: int = 8,
-    seed: int = 1000,
-    repo_id: str | None = None,
-    python: str = "python",
-) -> list[str]:
-    """``lerobot-train`` argv (run as ``python -m lerobot.scripts.lerobot_train``) of ``train_settings``."""
-    settings = train_settings(
-        method,
-        dataset_root,
-        output_dir,
-        steps=steps,
-        config=config,
-        batch_size=batch_size,
-        seed=seed,
-        repo_id=repo_id,
-    )
-    return [python, "-m", "lerobot.scripts.lerobot_train", *settings_to_cli(settings)]
+def train_command(*args: Any, python: str = "python", **kwargs: Any) -> list[str]:
+    """``lerobot-train`` argv (run as ``python -m lerobot.scripts.lerobot_train``) of
+    ``train_settings(*args, **kwargs)``."""
+    return [python, "-m", "lerobot.scripts.lerobot_train", *settings_to_cli(train_settings(*args, **kwargs))]
 
 
 def settings_to_cli(settings: dict[str, Any]) -> list[str]:
