@@ -238,7 +238,6 @@ class NearestNodeAssigner:
 
     def _full(self, idx: NDArray[np.intp] | slice, nodes: Array) -> None:
         """Exact nodes and fresh bounds for the samples ``idx`` from all (M', N) distances."""
-        idx = np.arange(len(self.points))[idx] if isinstance(idx, slice) else idx
         rhs = np.empty((nodes.shape[1] + 1, nodes.shape[0]))
         centred = nodes - self.origin
         np.multiply(centred.T, -2.0, out=rhs[:-1])
@@ -263,7 +262,7 @@ class NearestNodeAssigner:
         self.lower_out[idx] = np.sqrt(np.maximum(outside + sq, 0.0))
         close = np.minimum(near, outside) - best <= expansion_tolerance(sq, rhs[-1])
         if close.any():
-            self._exact(idx[close], nodes)
+            self._exact(np.arange(len(self.points))[idx][close], nodes)
 
     def _exact(self, idx: NDArray[np.intp], nodes: Array) -> None:
         """Labels and bounds of samples whose two nearest nodes the expansion cannot tell apart, from
