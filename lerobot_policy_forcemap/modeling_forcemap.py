@@ -82,18 +82,17 @@ class ForceMapPolicy(PreTrainedPolicy):
             self.fit_dataset(
                 str(dataset_meta.repo_id), None if dataset_meta.root is None else str(dataset_meta.root)
             )
-        elif dataset_meta is not None and config.dataset_tasks:
-            # `lerobot-train --policy.path=CKPT --dataset...`: nothing to fine-tune in a closed-form fit, and
-            # the checkpoint's maps stay as they are, so another task's dataset is an error, not a no-op
-            tasks = sorted(str(t) for t in dataset_meta.tasks.index)
-            if not set(tasks) & set(config.dataset_tasks):
-                raise ValueError(
-                    f"{config.pretrained_path}: fitted on demonstrations of {config.dataset_tasks}, but the dataset "
-                    f"{dataset_meta.root or dataset_meta.repo_id} holds {tasks}; to fit that dataset use "
-                    "--policy.type=forcemap instead of --policy.path (the fit is closed form)"
-                )
-            self._register_skill_buffers(None)
         else:
+            if dataset_meta is not None and config.dataset_tasks:
+                # `lerobot-train --policy.path=CKPT --dataset...`: a closed-form fit has nothing to fine-tune
+                # and the checkpoint's maps stay as they are, so another task's dataset is an error, not a no-op
+                tasks = sorted(str(t) for t in dataset_meta.tasks.index)
+                if not set(tasks) & set(config.dataset_tasks):
+                    raise ValueError(
+                        f"{config.pretrained_path}: fitted on demonstrations of {config.dataset_tasks}, but the "
+                        f"dataset {dataset_meta.root or dataset_meta.repo_id} holds {tasks}; to fit that dataset "
+                        "use --policy.type=forcemap instead of --policy.path (the fit is closed form)"
+                    )
             self._register_skill_buffers(None)
         self.reset()
 
