@@ -11,8 +11,10 @@ timestamps that do not increase, episodes the dataset lacks, too-short episodes.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -242,17 +244,19 @@ def load_episodes(
 ) -> tuple[list[EpisodeArrays], dict, float, list[str]]:
     """Read ``config.episodes`` of a LeRobot dataset; returns (episodes, features, fps, the task
     strings of those episodes)."""
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset, LeRobotDatasetMetadata  # lazy: heavy import
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lazy: heavy import
 
-    # checked on the metadata first: LeRobotDataset given an episode it lacks fails with "Instruction
-    # 'train' corresponds to no data!", or goes looking on the Hub for the missing files
-    total = LeRobotDatasetMetadata(repo_id, root=root).total_episodes
-    missing = sorted(int(e) for e in config.episodes if not 0 <= int(e) < total)
-    if missing:
-        raise ValueError(
-            f"ForceMapConfig.episodes: episode(s) {missing} not in the dataset {root or repo_id} "
-            f"(it has episodes 0..{total - 1})"
-        )
+    info = Path(root) / "meta" / "info.json" if root is not None else None
+    if info is not None and info.is_file():
+        # checked first: LeRobotDataset given an episode it lacks fails with "Instruction 'train'
+        # corresponds to no data!", or goes looking on the Hub for the missing files
+        total = int(json.loads(info.read_text())["total_episodes"])
+        missing = sorted(int(e) for e in config.episodes if not 0 <= int(e) < total)
+        if missing:
+            raise ValueError(
+                f"ForceMapConfig.episodes: episode(s) {missing} not in the dataset {root} "
+                f"(it has episodes 0..{total - 1})"
+            )
     ds = LeRobotDataset(repo_id, root=root, episodes=sorted(int(e) for e in config.episodes))
     features = ds.meta.features
     keys = [k for k in needed_columns(config, features) if k in ds.hf_dataset.column_names]
