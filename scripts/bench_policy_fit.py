@@ -70,7 +70,7 @@ def main(argv=None) -> int:
     total, res = median_ms(lambda: fit_policy(dataset, tmp / "one", overwrite=True), args.runs)
     meta_ms, _ = median_ms(lambda: LeRobotDatasetMetadata("local/press", root=dataset), args.runs)
     read_ms, loaded = median_ms(lambda: load_episodes("local/press", str(dataset), cfg), args.runs)
-    episodes, features, fps = loaded
+    episodes, features, fps, _tasks = loaded
     names = list(features["observation.environment_state"]["names"])
     fit_ms, (skill, report) = median_ms(lambda: fit_skill(episodes, cfg, fps, names), args.runs)
     policy = res.policy
