@@ -38,6 +38,7 @@ from lerobot_forcemap.segmentation import (  # noqa: E402
     stream_pmf,
 )
 from lerobot_forcemap.segmentation.reference import loop_segment_streams  # noqa: E402
+from lerobot_forcemap.shared_data import find_shared_data  # noqa: E402
 
 TARGET_MS = 5.0
 THRESHOLDS = {"joints": 0.20, "cartesian": 0.25, "wrist_force": 0.15, "wrist_torque": 0.15, "gripper": 0.10}
@@ -45,15 +46,8 @@ WEIGHTS = {"joints": 0.10, "cartesian": 0.10, "wrist_force": 0.35, "wrist_torque
 
 
 def default_demo_path() -> Path:
-    root = Path(__file__).resolve().parents[1]
-    for base in (
-        os.environ.get("FORCEMAP_SHARED_DATA"),
-        root.parent / "shared" / "data",
-        "/work/shared/data",
-    ):
-        if base and (Path(base) / "ur5e" / "three_button_press.h5").is_file():
-            return Path(base) / "ur5e" / "three_button_press.h5"
-    return Path("/work/shared/data/ur5e/three_button_press.h5")
+    demo = "ur5e/three_button_press.h5"
+    return (find_shared_data(demo) or Path(__file__).resolve().parents[2] / "shared" / "data") / demo
 
 
 def seconds(rows: np.ndarray) -> np.ndarray:

@@ -37,6 +37,7 @@ from lerobot_forcemap.data.recorder import read_recording  # noqa: E402
 from lerobot_forcemap.data.transforms import align_recording  # noqa: E402
 from lerobot_forcemap.elmap import fit_force_elastic_map  # noqa: E402
 from lerobot_forcemap.elmap.weights import project_on_contact_normal  # noqa: E402
+from lerobot_forcemap.shared_data import find_shared_data  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -66,9 +67,7 @@ def node_to_demo(nodes: np.ndarray, demo: np.ndarray) -> np.ndarray:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument(
-        "--data", default=os.environ.get("FORCEMAP_SHARED_DATA", str(REPO.parent / "shared" / "data"))
-    )
+    ap.add_argument("--data", default=None, help="folder holding ur5e/ (default: find_shared_data())")
     ap.add_argument("--file", default="ur5e/erase_2024-09-09_153311.h5")
     ap.add_argument("--out", default=str(REPO / "results"))
     ap.add_argument("--n-nodes", type=int, default=100)
@@ -80,7 +79,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
 
-    path = Path(args.data) / args.file
+    path = Path(args.data or find_shared_data(args.file) or REPO.parent / "shared" / "data") / args.file
     if not path.exists():
         print(f"error: {path} not found (pass --data)", file=sys.stderr)
         return 2

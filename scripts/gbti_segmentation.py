@@ -62,6 +62,7 @@ from lerobot_forcemap.segmentation.events import (  # noqa: E402
     merge_events,
     reference_events,
 )
+from lerobot_forcemap.shared_data import find_shared_data  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -135,11 +136,7 @@ class RunResult:
 
 
 def default_data_dir() -> Path:
-    env = os.environ.get("FORCEMAP_SHARED_DATA")
-    for c in (env, REPO.parent / "shared" / "data", "/work/shared/data"):
-        if c and (Path(c) / "gbti" / "Grasping_Demos.h5").is_file():
-            return Path(c)
-    return REPO.parent / "shared" / "data"
+    return find_shared_data("gbti/Grasping_Demos.h5") or REPO.parent / "shared" / "data"
 
 
 def load_demos(

@@ -15,16 +15,9 @@ from pathlib import Path  # noqa: E402
 
 import pytest  # noqa: E402
 
+from lerobot_forcemap.shared_data import find_shared_data  # noqa: E402
+
 REPO_ROOT = Path(__file__).resolve().parents[1]
-
-
-def find_shared_data() -> Path | None:
-    """The real UR5e / GBTI recordings: $FORCEMAP_SHARED_DATA, else ../shared/data next to the checkout."""
-    candidates = [os.environ.get("FORCEMAP_SHARED_DATA"), REPO_ROOT.parent / "shared" / "data", "/work/shared/data"]
-    for c in candidates:
-        if c and (Path(c) / "ur5e").is_dir():
-            return Path(c)
-    return None
 
 
 @pytest.fixture(scope="session")

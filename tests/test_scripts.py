@@ -13,24 +13,40 @@ import sys
 
 import pytest
 
+from lerobot_forcemap.shared_data import find_shared_data
 from tests.conftest import REPO_ROOT
 
 pytestmark = pytest.mark.slow
 
+#: script -> (arguments, a line fragment its output must hold, the real recording it reads or None)
 RUNS = {
-    "bench_policy_fit": (["--runs", "1", "--no-train"], "one-shot total"),
-    "bench_segmentation": (["--runs", "20"], "target: default segment_streams"),
-    "bench_envs": (["--episodes", "1", "--no-render"], "| grasp_flip |"),
-    "bench_elmap": (["--repeats", "1", "--baseline-repeats", "1", "--quick"], "| fold | 2730 | 100 | yes |"),
-    "elmap_realdata": (["--out", "{tmp}"], "normal reaction, k = 2000 N/m"),
-    "gbti_segmentation": (["--limit", "2", "--seeds", "1", "--out", "{tmp}"], "segment_streams calls"),
-    "grasp_unseen_objects": (["--seeds", "1"], "| grasp_flip | banana |"),
+    "bench_policy_fit": (["--runs", "1", "--no-train"], "one-shot total", None),
+    "bench_segmentation": (["--runs", "20"], "target: default segment_streams", "ur5e/three_button_press.h5"),
+    "bench_envs": (["--episodes", "1", "--no-render"], "| grasp_flip |", None),
+    "bench_elmap": (
+        ["--repeats", "1", "--baseline-repeats", "1", "--quick"],
+        "| fold | 2730 | 100 | yes |",
+        None,
+    ),
+    "elmap_realdata": (
+        ["--out", "{tmp}"],
+        "normal reaction, k = 2000 N/m",
+        "ur5e/erase_2024-09-09_153311.h5",
+    ),
+    "gbti_segmentation": (
+        ["--limit", "2", "--seeds", "1", "--out", "{tmp}"],
+        "segment_streams calls",
+        "gbti/Grasping_Demos.h5",
+    ),
+    "grasp_unseen_objects": (["--seeds", "1"], "| grasp_flip | banana |", None),
 }
 
 
 @pytest.mark.parametrize("script", sorted(RUNS))
 def test_script_runs(script, tmp_path):
-    args, expected = RUNS[script]
+    args, expected, recording = RUNS[script]
+    if recording is not None and find_shared_data(recording) is None:
+        pytest.skip(f"{recording} not found (set FORCEMAP_SHARED_DATA)")
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "HF_HUB_OFFLINE": "1", "MUJOCO_GL": "egl"}
     run = subprocess.run(
         [
