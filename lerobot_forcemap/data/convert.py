@@ -36,6 +36,7 @@ from tqdm.auto import tqdm
 from lerobot_forcemap import layout
 from lerobot_forcemap.data.recorder import GbtiKey, Recording, gbti_keys, iter_gbti_demos, read_recording
 from lerobot_forcemap.data.schema import add_episode, dataset_features, write_dataset_card
+from lerobot_forcemap.data.staging import check_output, partial_dir, replace_dir
 from lerobot_forcemap.data.transforms import (
     GRIPPER_FULL_SCALE,
     LAB_WRENCH_SIGN,
@@ -229,11 +230,8 @@ def convert_episodes(
     if not float(fps).is_integer() or fps <= 0:
         raise ValueError(f"fps must be a positive integer (LeRobot stores an int), got {fps}")
     fps = int(fps)
-    if out.exists() and not overwrite:
-        raise ValueError(f"output {out} exists (use overwrite=True / --overwrite)")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    work = out.parent / f".{out.name}.partial"
-    shutil.rmtree(work, ignore_errors=True)  # left by a run that was killed
+    check_output(out, overwrite=overwrite)
+    work = partial_dir(out)
 
     import datasets as hf_datasets
 
@@ -321,20 +319,8 @@ def convert_episodes(
         tare=tare,
         gripper_full_scale=gripper_full_scale,
     )
-    _replace_dir(out, work)
+    replace_dir(out, work)
     return ConversionResult(out, repo_id, fps, len(records), n_frames, records)
-
-
-def _replace_dir(out: Path, new: Path) -> None:
-    """Move the finished dataset ``new`` to ``out``, replacing what is there."""
-    if out.exists():
-        old = out.parent / f".{out.name}.old"
-        shutil.rmtree(old, ignore_errors=True)
-        out.rename(old)
-        new.rename(out)
-        shutil.rmtree(old)
-    else:
-        new.rename(out)
 
 
 def _refuse_output_holding_inputs(out: str | Path, inputs: Sequence[Path]) -> None:

@@ -80,6 +80,9 @@ class ForceTaskEnv(gym.Env):
             raise ValueError(
                 f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}"
             )
+        for name, size in (("image_size", image_size), ("render_size", render_size)):
+            if int(size) != size or size < 1:
+                raise ValueError(f"{name} must be a positive number of pixels, got {size!r}")
         self.obs_type = obs_type
         self.render_mode = render_mode
         self.image_size = int(image_size)

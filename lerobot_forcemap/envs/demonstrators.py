@@ -143,12 +143,9 @@ class ScriptedDemonstrator(abc.ABC):
 
 
 def _task_class(task: str):
-    import importlib
+    from .registration import env_class
 
-    from .registration import task_entry
-
-    module, cls = task_entry(task).entry_point.split(":")
-    return importlib.import_module(module).__dict__[cls].task_class
+    return env_class(task).task_class
 
 
 # ---- press ---------------------------------------------------------------------------------------------------

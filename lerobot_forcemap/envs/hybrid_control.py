@@ -44,6 +44,12 @@ class HybridConfig:
             raise ValueError("force_threshold and stiffness must be positive")
         if self.force_setpoint is not None and self.force_setpoint <= 0:
             raise ValueError("force_setpoint must be positive")
+        if self.normal is not None:
+            n = np.asarray(self.normal, dtype=float)
+            if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) < 1e-9:
+                raise ValueError(
+                    f"normal must be a finite non-zero 3-vector (or None: measured), got {self.normal!r}"
+                )
 
 
 class HybridForcePositionPolicy:

@@ -17,6 +17,7 @@ the numbers a reproduction is compared with.
 from __future__ import annotations
 
 import argparse
+import inspect
 import json
 import shutil
 import warnings
@@ -26,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from ..data.staging import check_output, partial_dir, replace_dir
 from ..layout import (
     ACTION,
     CONTACT_FORCE,
@@ -44,7 +46,7 @@ from ..layout import (
     OBS_IMAGES_PREFIX,
     OBS_STATE,
 )
-from .registration import make, task_entry
+from .registration import env_class, make, task_entry
 from .scene import CAMERA
 
 EPISODES_FILE = "forcemap_episodes.json"
@@ -105,12 +107,17 @@ def record_demonstrations(
 
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
-    root = Path(out)
-    if root.exists():
-        if not overwrite:
-            raise ValueError(f"{root} exists; pass overwrite=True (--overwrite) to replace it")
-        shutil.rmtree(root)
+    limit = max_attempts if max_attempts is not None else 3 * episodes
+    if limit < episodes:
+        raise ValueError(f"max_attempts ({limit}) must be >= episodes ({episodes})")
+    # Checked before any work, and the dataset is written beside `out` (staging): a failed run leaves
+    # an existing dataset at `out` as it was, and no half-written one.
+    out = check_output(out, overwrite=overwrite)
     entry = task_entry(task)
+    if object_name is not None and "object" not in inspect.signature(env_class(task)).parameters:
+        raise ValueError(
+            f"object: task {task!r} has no objects to choose from (object= is for the grasping tasks)"
+        )
     env_kwargs = {} if object_name is None else {"object": object_name}
     env = make(
         task,
@@ -131,6 +138,7 @@ def record_demonstrations(
     features[CONTACT_FORCE] = {"dtype": "float32", "shape": (3,), "names": list(CONTACT_FORCE_NAMES)}
     features[DEMO_PHASE] = {"dtype": "int64", "shape": (1,), "names": None}
     fps = int(round(base.task_impl.control_hz))
+    root = partial_dir(out)
     dataset = LeRobotDataset.create(
         repo_id=repo_id or f"local/forcemap_{task}",
         fps=fps,
@@ -141,7 +149,6 @@ def record_demonstrations(
     )
     demo_cls = None
     result = RecordResult(root=root, task=task, n_episodes=0, seeds=[], skipped_seeds=[])
-    limit = max_attempts if max_attempts is not None else 3 * episodes
     bar = tqdm(total=episodes, desc=f"record {task}", disable=not progress)
     attempt = 0
     try:
@@ -186,16 +193,22 @@ def record_demonstrations(
             result.seeds.append(ep_seed)
             result.n_episodes += 1
             bar.update(1)
+        if result.n_episodes < episodes:
+            raise RuntimeError(
+                f"record {task}: only {result.n_episodes} of {episodes} demonstrations succeeded in {attempt} "
+                f"attempts (failed seeds {result.skipped_seeds}); nothing written to {out}"
+            )
+        dataset.finalize()
+        _write_metadata(result, base, demo_cls, fps, images)
+    except BaseException:
+        dataset.finalize()  # close the writers, then remove the half-written dataset
+        shutil.rmtree(root, ignore_errors=True)
+        raise
     finally:
         bar.close()
-        dataset.finalize()
         env.close()
-    if result.n_episodes < episodes:
-        raise RuntimeError(
-            f"record {task}: only {result.n_episodes} of {episodes} demonstrations succeeded in {attempt} attempts "
-            f"(failed seeds {result.skipped_seeds})"
-        )
-    _write_metadata(result, base, demo_cls, fps, images)
+    replace_dir(out, root)
+    result.root = out
     return result
 
 

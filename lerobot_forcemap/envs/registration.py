@@ -61,6 +61,14 @@ def task_entry(task: str) -> TaskEntry:
         raise ValueError(f"unknown task {task!r}; known: {sorted(TASKS)}") from None
 
 
+def env_class(task: str) -> type[gym.Env]:
+    """The env class of ``task`` (imports its module, and so MuJoCo)."""
+    import importlib
+
+    module, name = task_entry(task).entry_point.split(":")
+    return getattr(importlib.import_module(module), name)
+
+
 def make(task: str, **kwargs) -> gym.Env:
     """``gym.make`` by task name (``"press"``, ``"erase"``, ``"peg_in_hole"``, ...)."""
     register_all()

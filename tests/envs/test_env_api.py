@@ -65,6 +65,9 @@ def test_bad_actions_and_options_raise():
     with pytest.raises(ValueError, match="unknown options"):
         env.reset(seed=0, options={"bogus": 1})
     env.reset(seed=0, options={"lerobot_new_rollout": True})  # LeRobot's rollout option is accepted
+    for size in (0, -5, 2.5):
+        with pytest.raises(ValueError, match="image_size must be a positive number of pixels"):
+            E.make("press", obs_type="pixels_state", image_size=size)
 
 
 def test_clipping_is_reported_not_silent():

@@ -47,6 +47,9 @@ def test_offset_and_validation():
     bad[3, 0] = np.nan
     with pytest.raises(ValueError, match="step 3"):
         HybridForcePositionPolicy(bad)
+    for normal in ((0, 0, 0), (0, 0, np.nan), (0, 1)):  # a zero normal would never engage force control
+        with pytest.raises(ValueError, match="normal must be a finite non-zero 3-vector"):
+            HybridConfig(normal=normal)
 
 
 def test_hybrid_control_lowers_the_press_force_and_still_succeeds(demo_rollouts):

@@ -64,6 +64,85 @@ def test_record_cli_and_overwrite_guard(tmp_path):
     assert (out / "meta" / "info.json").is_file()
     with pytest.raises(ValueError, match="exists"):
         main(["record", "--task", "peg_in_hole", "--episodes", "1", "--seed", "5", "--out", str(out)])
+    before = _tree(out)
+    # a mistake found while setting up leaves the existing dataset as it was, even with --overwrite
+    with pytest.raises(ValueError, match="object: task 'peg_in_hole' has no objects"):
+        main(
+            [
+                "record",
+                "--task",
+                "peg_in_hole",
+                "--episodes",
+                "1",
+                "--out",
+                str(out),
+                "--overwrite",
+                "--object",
+                "apple",
+            ]
+        )
+    with pytest.raises(ValueError, match="max_attempts .1. must be >= episodes .2."):
+        main(
+            [
+                "record",
+                "--task",
+                "peg_in_hole",
+                "--episodes",
+                "2",
+                "--max-attempts",
+                "1",
+                "--out",
+                str(out),
+                "--overwrite",
+            ]
+        )
+    assert _tree(out) == before
+    # --overwrite replaces datasets (and empty folders), never a folder of something else
+    other = tmp_path / "notes"
+    other.mkdir()
+    (other / "keep.txt").write_text("mine")
+    with pytest.raises(ValueError, match="not a LeRobot dataset"):
+        record_demonstrations("press", 1, 0, other, overwrite=True, progress=False)
+    assert (other / "keep.txt").read_text() == "mine"
+
+
+def _tree(root):
+    return {p.relative_to(root): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+class _IdleDemonstrator:
+    """Holds the start pose: the press is never made, so every demonstration fails."""
+
+    phase_index = 0
+
+    def __init__(self, rng, **kwargs):
+        pass
+
+    def reset(self, obs):
+        self.pose = np.concatenate([obs[layout.ENV_EE_POSE], [1.0]])
+
+    def act(self, obs):
+        return self.pose.copy()
+
+
+def test_failed_recording_leaves_no_dataset_and_keeps_the_old_one(tmp_path, monkeypatch, press_dataset):
+    """Fewer successes than asked for: nothing at a new ``out``; an existing one untouched by --overwrite."""
+    import shutil
+
+    from lerobot_forcemap.envs import demonstrators
+
+    old = tmp_path / "old"
+    shutil.copytree(press_dataset[0], old)
+    before = _tree(old)
+    monkeypatch.setattr(demonstrators, "make_demonstrator", lambda task, rng, **kw: _IdleDemonstrator(rng))
+    for out, overwrite in ((tmp_path / "new", False), (old, True)):
+        with pytest.raises(
+            RuntimeError, match=r"only 0 of 1 demonstrations succeeded in 1 attempts.*nothing written"
+        ):
+            record_demonstrations("press", 1, 0, out, max_attempts=1, overwrite=overwrite, progress=False)
+    assert not (tmp_path / "new").exists()
+    assert _tree(old) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old"]  # no .partial left behind
 
 
 def test_recording_with_images_decodes_the_camera_frames(tmp_path):
