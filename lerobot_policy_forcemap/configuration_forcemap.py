@@ -33,7 +33,15 @@ from lerobot.optim import SGDConfig
 
 from lerobot_forcemap import layout
 
-__all__ = ["ForceMapConfig", "ELMAP_PARAMS", "GRIPPER_PARAMS", "SEGMENT_SOURCES", "DEFAULT_STREAM_WEIGHTS"]
+__all__ = [
+    "ForceMapConfig",
+    "ELMAP_PARAMS",
+    "GRIPPER_PARAMS",
+    "RUNTIME_FIELDS",
+    "SEGMENT_SOURCES",
+    "DEFAULT_STREAM_WEIGHTS",
+    "elmap_param_problem",
+]
 
 #: elastic-map parameters of the arm map that ``segment_overrides`` may change per segment
 ELMAP_PARAMS = (
@@ -75,6 +83,47 @@ DEFAULT_STREAM_THRESHOLDS = {
 }
 #: the authors' segmentation window: 64 samples at the lab recorder's ~166 Hz
 AUTHORS_WINDOW_S = 64 / 166.0
+#: settings read only while acting (observation keys, re-anchoring, chunking, the task check): a loaded
+#: checkpoint may run with others (``lerobot-eval --policy.path=... --policy.reanchor_online=false``).
+#: Every other setting shapes the fitted maps, which the checkpoint stores: changing it needs a refit.
+RUNTIME_FIELDS = (
+    "robot_pose_key",
+    "env_state_key",
+    "reanchor",
+    "reanchor_online",
+    "reanchor_tolerance",
+    "reanchor_blend_s",
+    "chunk_size",
+    "check_task",
+)
+_NON_NEGATIVE = ("lam", "mu", "delta", "f_contact", "time_scale")
+_UNITS = {
+    "time_scale": " m/s",
+    "gripper_time_scale": " (gripper units per s)",
+    "delta": " m",
+    "f_contact": " N",
+}
+
+
+def elmap_param_problem(name: str, value: object) -> str | None:
+    """What is wrong with the value of one of ``ELMAP_PARAMS`` / ``GRIPPER_PARAMS`` (None: nothing)."""
+    base = name.removeprefix("gripper_")
+    if value is None:
+        return None if base in ("rho_max", "force_limit", "n_nodes") else "must be a number"
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or value != value:
+        return "must be a number"
+    unit = _UNITS.get(name, "")
+    if base in _NON_NEGATIVE:
+        return None if value >= 0 else f"must be >= 0{unit}"
+    if base == "stiffness":
+        return None if value > 0 else "must be > 0"
+    if base == "rho_max":
+        return None if 0 < value < 1 else "must be None or in (0, 1)"
+    if base == "force_limit":
+        return None if value > 0 else "must be None or > 0 N"
+    if base == "n_nodes":
+        return None if int(value) == value and value >= 3 else "must be None or an integer >= 3"
+    return None
 
 
 @PreTrainedConfig.register_subclass("forcemap")
@@ -87,7 +136,8 @@ class ForceMapConfig(PreTrainedConfig):
             ``action`` (the commanded absolute target): with a compliant controller the measured
             pose (``observation.ee_pose``) lags the command by F/K in contact, and reproducing it
             undershoots the demonstrated contact (a pressed button would not click).
-        force_key: wrist wrench, first 3 entries used (N, base frame, reaction on the robot).
+        force_key: wrist wrench, first 3 entries used (N, base frame, reaction on the robot); a dataset
+            without it is refused unless ``force_key=''`` asks for plain elastic maps (no force points).
         gripper_key / gripper_index: gripper coordinate (0 open .. 1 closed); default the command
             ``action[7]``.
         finger_force_key: fingertip forces; used for the gripper map's force points when present.
@@ -100,7 +150,8 @@ class ForceMapConfig(PreTrainedConfig):
             the dataset column ``segment_column``: ``segment_index`` as written by ``forcemap segment``,
             or e.g. the recorder's ground-truth ``demo_phase``), "none" (one segment).
         stream_weights / stream_thresholds: per stream name (position, wrist_force, joints, gripper,
-            finger_force); weight 0 drops a stream; a stream whose feature is missing is skipped.
+            finger_force); weight 0 drops a stream; a stream whose feature is missing is skipped. A
+            dict naming some streams changes those; the others keep their defaults.
         segmentation_window_s: window in seconds, converted to samples at the dataset fps (the
             authors' 64 samples at ~166 Hz = 0.385 s); min_run = window, grace scaled likewise.
         segmentation_mode, changepoints, segmentation_seed, min_segment_s: see
@@ -247,6 +298,10 @@ class ForceMapConfig(PreTrainedConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        # `--policy.stream_weights='{"wrist_force": 2}'` replaces the whole dict (draccus): keep the other
+        # streams at their defaults instead of dropping them (weight 0 drops a stream explicitly)
+        self.stream_weights = {**DEFAULT_STREAM_WEIGHTS, **self.stream_weights}
+        self.stream_thresholds = {**DEFAULT_STREAM_THRESHOLDS, **self.stream_thresholds}
         self.validate_parameters()
 
     # ---- checks -----------------------------------------------------------------------------------
@@ -281,19 +336,9 @@ class ForceMapConfig(PreTrainedConfig):
         need(self.n_nodes is None or int(self.n_nodes) >= 3, "n_nodes", "must be None or >= 3")
         need(self.nodes_per_second > 0, "nodes_per_second", "must be > 0")
         need(int(self.min_nodes) >= 3, "min_nodes", "must be >= 3")
-        for name in (
-            "lam",
-            "mu",
-            "delta",
-            "f_contact",
-            "gripper_lam",
-            "gripper_mu",
-            "gripper_delta",
-            "gripper_f_contact",
-        ):
-            need(getattr(self, name) >= 0, name, "must be >= 0")
-        need(self.time_scale >= 0, "time_scale", "must be >= 0 m/s")
-        need(self.gripper_time_scale >= 0, "gripper_time_scale", "must be >= 0 (gripper units per s)")
+        for name in (*ELMAP_PARAMS, *GRIPPER_PARAMS):
+            problem = elmap_param_problem(name, getattr(self, name))
+            need(problem is None, name, str(problem))
         need(
             self.gripper_nodes_per_second is None or self.gripper_nodes_per_second > 0,
             "gripper_nodes_per_second",
@@ -305,10 +350,8 @@ class ForceMapConfig(PreTrainedConfig):
             "reanchor_blend_s",
             "must be None or > 0 s",
         )
-        for name in ("stiffness", "gripper_stiffness", "anchor_radius", "static_tolerance"):
+        for name in ("anchor_radius", "static_tolerance"):
             need(getattr(self, name) > 0, name, "must be > 0")
-        need(self.rho_max is None or 0 < self.rho_max < 1, "rho_max", "must be None or in (0, 1)")
-        need(self.force_limit is None or self.force_limit > 0, "force_limit", "must be None or > 0 N")
         need(int(self.chunk_size) >= 1, "chunk_size", "must be >= 1")
         need(self.max_iter >= 1, "max_iter", "must be >= 1")
         allowed = set(ELMAP_PARAMS) | set(GRIPPER_PARAMS)
@@ -318,6 +361,12 @@ class ForceMapConfig(PreTrainedConfig):
                 raise ValueError(
                     f"ForceMapConfig.segment_overrides[{seg}]: unknown parameter(s) {bad}; allowed {sorted(allowed)}"
                 )
+            for name, value in params.items():
+                problem = elmap_param_problem(name, value)
+                if problem is not None:
+                    raise ValueError(
+                        f"ForceMapConfig.segment_overrides[{seg}][{name!r}]: {problem}, got {value!r}"
+                    )
         # fitted sizes must agree with each other (a hand-edited config.json is caught here)
         if self.n_segments:
             for name in ("segment_n_nodes", "segment_n_gripper_nodes", "segment_anchors"):
@@ -415,3 +464,20 @@ class ForceMapConfig(PreTrainedConfig):
     @classmethod
     def field_names(cls) -> tuple[str, ...]:
         return tuple(f.name for f in fields(cls))
+
+    @classmethod
+    def fit_field_names(cls) -> tuple[str, ...]:
+        """The settings that shape the fitted maps: this class's own fields, less :data:`RUNTIME_FIELDS`,
+        LeRobot plumbing and the fitted sizes (which the checkpoint's tensors check)."""
+        base = {f.name for f in fields(PreTrainedConfig)}
+        skip = {*RUNTIME_FIELDS, *cls.fitted_field_names(), "normalization_mapping", "push_to_hub"}
+        return tuple(f.name for f in fields(cls) if f.name not in base and f.name not in skip)
+
+    def changed_fit_settings(self, fitted: ForceMapConfig) -> dict[str, tuple[object, object]]:
+        """``{name: (fitted value, this value)}`` for every fit setting or fitted size in which this config
+        differs from ``fitted``, the config a checkpoint was fitted with."""
+        return {
+            name: (getattr(fitted, name), getattr(self, name))
+            for name in (*self.fit_field_names(), *self.fitted_field_names())
+            if getattr(fitted, name) != getattr(self, name)
+        }

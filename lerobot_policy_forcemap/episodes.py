@@ -125,6 +125,24 @@ def episodes_from_columns(
             raise ValueError(
                 f"ForceMapConfig.{what}={key!r}: the dataset has no such feature (features: {sorted(features)})"
             )
+    if config.force_key and config.force_key not in features:
+        raise ValueError(
+            f"ForceMapConfig.force_key={config.force_key!r}: the dataset has no such feature (features: "
+            f"{sorted(features)}); the demonstrated force is what the method learns from. To fit plain "
+            "elastic maps without it, set force_key='' (--policy.force_key='')"
+        )
+    # optional features: absent at their default names is fine (no fingertip sensors, no objects);
+    # a name set by hand that the dataset lacks is a mistake, not a reason to fit without it
+    for key, what, default in (
+        (config.finger_force_key, "finger_force_key", layout.OBS_FINGER_FORCE),
+        (config.env_state_key, "env_state_key", layout.OBS_ENV_STATE),
+        (config.joints_key, "joints_key", layout.OBS_STATE),
+    ):
+        if key and key != default and key not in features:
+            raise ValueError(
+                f"ForceMapConfig.{what}={key!r}: the dataset has no such feature (features: {sorted(features)}); "
+                f"leave it at {default!r} or set '' to fit without it"
+            )
     if _feature_width(features, config.pose_key) < 7:
         raise ValueError(
             f"ForceMapConfig.pose_key={config.pose_key!r}: needs >= 7 entries [x y z qw qx qy qz], "
@@ -147,7 +165,7 @@ def episodes_from_columns(
         a = np.asarray(columns[key])[rows]
         return a.reshape(len(rows), -1).astype(np.float64)
 
-    has_force = config.force_key in features and config.force_key in columns
+    has_force = bool(config.force_key) and config.force_key in columns
     finger_names = (
         features.get(config.finger_force_key, {}).get("names")
         if config.finger_force_key in features

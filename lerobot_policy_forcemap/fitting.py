@@ -22,6 +22,7 @@ shared with the next segment, so consecutive maps meet); the last segment ends a
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass
 
@@ -42,6 +43,8 @@ from .anchoring import (
 from .configuration_forcemap import AUTHORS_WINDOW_S, ForceMapConfig
 from .episodes import EpisodeArrays
 from .skill import FittedSkill, SegmentMaps
+
+logger = logging.getLogger(__name__)
 
 __all__ = [
     "FitReport",
@@ -121,10 +124,10 @@ def episode_streams(ep: EpisodeArrays, config: ForceMapConfig) -> list[Stream]:
     }
     streams = []
     for name, values in sources.items():
-        weight = float(config.stream_weights.get(name, 0.0))
+        weight = float(config.stream_weights[name])
         if values is None or weight <= 0:
             continue
-        threshold = float(config.stream_thresholds.get(name, 0.2))
+        threshold = float(config.stream_thresholds[name])
         streams.append(Stream(name, values, ep.times, weight=weight, threshold=threshold))
     if not streams:
         raise ValueError(
@@ -142,7 +145,17 @@ def _labels_to_changepoints(labels: NDArray[np.int64], episode: int, column: str
             f"feature {column!r}, episode {episode}, frame {i}: segment labels must start at 0 and "
             f"step by 1, got {int(labels[i])}"
         )
-    return np.concatenate([[0], np.flatnonzero(steps) + 1, [len(labels)]]).astype(np.int64)
+    changepoints = np.concatenate([[0], np.flatnonzero(steps) + 1, [len(labels)]]).astype(np.int64)
+    if len(changepoints) > 2 and changepoints[-2] == len(labels) - 1:
+        # A label on the last frame only (a recorder that stops on success logs the "done" phase once):
+        # segments share their boundary frame, so that frame already ends the previous segment.
+        logger.warning(
+            "feature %r, episode %d: label %d occurs on the last frame (%d) only; that frame ends segment %d "
+            "instead of being a segment of its own (a segment needs >= 2 frames)",
+            column, episode, int(labels[-1]), len(labels) - 1, int(labels[-1]) - 1,
+        )  # fmt: skip
+        changepoints = np.delete(changepoints, -2)
+    return changepoints
 
 
 def segment_episode(ep: EpisodeArrays, config: ForceMapConfig, fps: float) -> NDArray[np.int64]:

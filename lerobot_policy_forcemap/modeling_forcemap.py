@@ -35,7 +35,7 @@ from torch import Tensor, nn
 
 from .anchoring import object_poses, object_slots, place_skill, provisional_segments, reanchor_segment
 from .checkpoint import DUMMY_PARAMETER, check_safetensors_file, check_skill_values, expected_tensors
-from .configuration_forcemap import ForceMapConfig
+from .configuration_forcemap import RUNTIME_FIELDS, ForceMapConfig
 from .episodes import load_episodes
 from .fitting import FitReport, fit_skill
 from .skill import FittedSkill, Reproduction
@@ -184,32 +184,13 @@ class ForceMapPolicy(PreTrainedPolicy):
         """LeRobot's loader with clear errors: the failing file and field are named."""
         path = Path(str(pretrained_name_or_path))
         where = path / "config.json" if path.is_dir() else f"{pretrained_name_or_path} (config.json)"
+        stored = _read_config(pretrained_name_or_path, where, kwargs)
         if config is None:
-            from lerobot.configs.policies import PreTrainedConfig
-
-            if path.is_dir():
-                _check_config_json(path / "config.json")
-            try:
-                config = PreTrainedConfig.from_pretrained(
-                    pretrained_name_or_path,
-                    **{
-                        k: kwargs[k]
-                        for k in (
-                            "force_download",
-                            "resume_download",
-                            "proxies",
-                            "token",
-                            "cache_dir",
-                            "local_files_only",
-                            "revision",
-                        )
-                        if k in kwargs
-                    },
-                )
-            except Exception as err:  # draccus' ParsingError/DecodingError, hub errors, our own ValueErrors
-                cause = err.__cause__ or err.__context__
-                detail = f"{err}" + (f" ({cause})" if cause is not None else "")
-                raise ValueError(f"{where}: cannot read the policy config: {detail}") from err
+            config = stored
+        elif isinstance(config, ForceMapConfig) and isinstance(stored, ForceMapConfig):
+            # `lerobot-eval/train --policy.path=CKPT --policy.stiffness=...`: LeRobot applies the flag to the
+            # config, but the maps were fitted with the stored value and are not refitted on load
+            _refuse_changed_fit_settings(config, stored, where)
         if not isinstance(config, ForceMapConfig):
             raise ValueError(
                 f"{where}: policy type {getattr(config, 'type', type(config).__name__)!r} is not 'forcemap'"
@@ -401,6 +382,46 @@ class ForceMapPolicy(PreTrainedPolicy):
 
 
 # ---- helpers -------------------------------------------------------------------------------------------
+
+
+_HUB_KWARGS = (
+    "force_download",
+    "resume_download",
+    "proxies",
+    "token",
+    "cache_dir",
+    "local_files_only",
+    "revision",
+)
+
+
+def _read_config(pretrained_name_or_path: str | Path, where: object, kwargs: dict[str, Any]):
+    """The policy config stored with a checkpoint (local folder or Hub repo), with clear errors."""
+    from lerobot.configs.policies import PreTrainedConfig
+
+    path = Path(str(pretrained_name_or_path))
+    if path.is_dir():
+        _check_config_json(path / "config.json")
+    try:
+        return PreTrainedConfig.from_pretrained(
+            pretrained_name_or_path, **{k: kwargs[k] for k in _HUB_KWARGS if k in kwargs}
+        )
+    except Exception as err:  # draccus' ParsingError/DecodingError, hub errors, our own ValueErrors
+        cause = err.__cause__ or err.__context__
+        detail = f"{err}" + (f" ({cause})" if cause is not None else "")
+        raise ValueError(f"{where}: cannot read the policy config: {detail}") from err
+
+
+def _refuse_changed_fit_settings(config: ForceMapConfig, stored: ForceMapConfig, where: object) -> None:
+    changed = config.changed_fit_settings(stored)
+    if changed:
+        diffs = ", ".join(f"{name} {old!r} -> {new!r}" for name, (old, new) in changed.items())
+        raise ValueError(
+            f"{where}: the checkpoint was fitted with other settings than asked for ({diffs}); a checkpoint "
+            "stores fitted maps and loading does not refit them. Refit with these settings (lerobot-train "
+            "--policy.type=forcemap --policy.<name>=..., or forcemap fit --set <name>=...); settings read only "
+            f"while acting may change at load: {', '.join(RUNTIME_FIELDS)}"
+        )
 
 
 def _check_config_json(path: Path) -> None:

@@ -145,3 +145,38 @@ def test_value_checks_name_the_field():
     }
     with pytest.raises(ValueError, match="src: tensor 'node_times' decreases within segment 0"):
         check_skill_values(arrays, cfg, "src")
+
+
+def test_fit_settings_given_at_load_are_refused_runtime_ones_apply(press_checkpoint):
+    """``lerobot-eval --policy.path=CKPT --policy.stiffness=...``: LeRobot applies the flag to the config, but
+    the stored maps were fitted with another stiffness; loading them under it would report a setting that
+    was never used. Settings read only while acting apply."""
+    from lerobot.configs.policies import PreTrainedConfig
+    from lerobot.policies.factory import make_policy
+
+    def load(*overrides):
+        cfg = PreTrainedConfig.from_pretrained(press_checkpoint, cli_overrides=list(overrides))
+        cfg.pretrained_path = press_checkpoint
+        return make_policy(cfg, env_cfg=EnvConfig.get_choice_class("forcemap_press")())
+
+    from lerobot.envs.configs import EnvConfig
+
+    with pytest.raises(
+        ValueError,
+        match=r"config\.json: the checkpoint was fitted with other settings than asked "
+        r"for \(episodes \[0\] -> \[1\], stiffness 3000\.0 -> 100000\.0\).*forcemap fit --set",
+    ):
+        load("--stiffness=100000", "--episodes=[1]")
+    policy = load("--reanchor_online=false", "--chunk_size=4")
+    assert policy.config.reanchor_online is False and policy.config.chunk_size == 4
+    # lerobot-train --policy.path=CKPT with a fit setting: refused the same way (the maps would be re-saved
+    # under a config.json that misdescribes them)
+    from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
+
+    from .conftest import SHIPPED_PRESS
+
+    cfg = PreTrainedConfig.from_pretrained(press_checkpoint, cli_overrides=["--lam=0.5"])
+    cfg.pretrained_path = press_checkpoint
+    if (SHIPPED_PRESS / "meta" / "info.json").is_file():
+        with pytest.raises(ValueError, match=r"lam 0\.01 -> 0\.5"):
+            make_policy(cfg, ds_meta=LeRobotDatasetMetadata("local/press", root=SHIPPED_PRESS))

@@ -37,6 +37,9 @@ def test_registered_and_lerobot_defaults():
         ({"gripper_nodes_per_second": 0.0}, "gripper_nodes_per_second"),
         ({"reanchor_tolerance": -0.001}, "reanchor_tolerance"),
         ({"reanchor_blend_s": 0.0}, "reanchor_blend_s"),
+        ({"segment_overrides": {1: {"time_scale": -0.05}}}, r"segment_overrides\[1\]\['time_scale'\]"),
+        ({"segment_overrides": {0: {"stiffness": "stiff"}}}, r"segment_overrides\[0\]\['stiffness'\]"),
+        ({"segment_overrides": {0: {"n_nodes": 2}}}, r"segment_overrides\[0\]\['n_nodes'\]"),
         (
             {
                 "n_segments": 2,
@@ -62,6 +65,35 @@ def test_registered_and_lerobot_defaults():
 def test_bad_settings_name_the_field(kwargs, field):
     with pytest.raises(ValueError, match=f"ForceMapConfig.{field}"):
         ForceMapConfig(device="cpu", **kwargs)
+
+
+def test_a_partial_stream_dict_keeps_the_other_streams_defaults():
+    """draccus replaces a dict flag whole: ``--policy.stream_weights='{"wrist_force": 2}'`` must not drop
+    the other streams (weight 0 does that, explicitly)."""
+    from lerobot_policy_forcemap.configuration_forcemap import (
+        DEFAULT_STREAM_THRESHOLDS,
+        DEFAULT_STREAM_WEIGHTS,
+    )
+
+    cfg = ForceMapConfig(
+        device="cpu", stream_weights={"wrist_force": 2.0}, stream_thresholds={"position": 0.3}
+    )
+    assert cfg.stream_weights == {**DEFAULT_STREAM_WEIGHTS, "wrist_force": 2.0}
+    assert cfg.stream_thresholds == {**DEFAULT_STREAM_THRESHOLDS, "position": 0.3}
+    assert ForceMapConfig(device="cpu", stream_weights={"joints": 0.0}).stream_weights["joints"] == 0.0
+
+
+def test_fit_settings_are_every_setting_but_the_runtime_ones():
+    from lerobot_policy_forcemap.configuration_forcemap import RUNTIME_FIELDS
+
+    fit = set(ForceMapConfig.fit_field_names())
+    assert {"stiffness", "episodes", "stream_weights", "segment_overrides", "anchor_radius"} <= fit
+    assert not fit & set(RUNTIME_FIELDS) and "device" not in fit and "fps" not in fit
+    a, b = (
+        ForceMapConfig(device="cpu"),
+        ForceMapConfig(device="cuda", stiffness=5000.0, reanchor_online=False),
+    )
+    assert b.changed_fit_settings(a) == {"stiffness": (3000.0, 5000.0)}
 
 
 def test_segment_params_apply_overrides_to_one_segment():

@@ -35,6 +35,23 @@ def test_missing_feature_names_the_key(columns):
         episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", pose_key="observation.ee_pose"))
 
 
+def test_missing_force_is_refused_unless_asked_for(columns):
+    """No silent force-free fit: a mistyped or absent force feature is an error; force_key='' opts out."""
+    cols, feats = columns
+    with pytest.raises(
+        ValueError, match=r"force_key='observation.wrench': the dataset has no such feature.*force_key=''"
+    ):
+        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", force_key="observation.wrench"))
+    with pytest.raises(
+        ValueError, match=r"env_state_key='observation.objects': the dataset has no such feature"
+    ):
+        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", env_state_key="observation.objects"))
+    plain = episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", force_key=""))
+    assert not plain[0].has_force and not plain[0].force.any()
+    # an optional feature absent under its default name is fine (the synthetic press has no joints)
+    assert episodes_from_columns(cols, feats, ForceMapConfig(device="cpu"))[0].has_force
+
+
 def test_nan_names_feature_episode_and_frame(columns):
     cols, feats = columns
     cols["observation.force"][np.flatnonzero(cols["episode_index"] == 1)[7], 2] = np.nan

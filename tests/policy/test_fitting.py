@@ -105,6 +105,22 @@ def test_dataset_labels_become_changepoints_and_bad_labels_are_named():
         segment_episode(none, cfg, 20.0)
 
 
+def test_a_label_on_the_last_frame_only_ends_the_previous_segment(caplog):
+    """A recorder that stops on success logs its "done" phase on the last frame only (the grasp datasets'
+    ``demo_phase``): that frame closes the previous segment instead of being a 1-frame segment."""
+    ep = press_episode(0)
+    labels = ep.segment_labels.copy()
+    labels[-1] = labels[-2] + 1
+    last = type(ep)(**{**ep.__dict__, "segment_labels": labels})
+    cfg = ForceMapConfig(device="cpu", segments="dataset")
+    with caplog.at_level("WARNING"):
+        cp = segment_episode(last, cfg, 20.0)
+    np.testing.assert_array_equal(cp, [0, 40, 60, 80, ep.n_frames])
+    assert f"label 4 occurs on the last frame ({ep.n_frames - 1}) only" in caplog.text
+    skill, _ = fit_skill([last], cfg, 20.0, OBJECT_NAMES)
+    assert skill.n_segments == 4
+
+
 def test_segmentation_window_scales_with_fps():
     cfg = ForceMapConfig(device="cpu")
     assert segmentation_config(cfg, 166.0).window == 64  # the authors' setting at their rate
