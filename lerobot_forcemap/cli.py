@@ -72,8 +72,9 @@ def main(argv: list[str] | None = None) -> int:
 
 
 #: bad input (messages name the argument, field, episode or frame), refusals of the file system or the
-#: Hub (huggingface_hub's HTTP, offline-mode and missing-token errors are all OSErrors) and a missing
-#: optional dependency (ImportError naming the extra to install)
+#: Hub (huggingface_hub's HTTP-status, offline-mode and missing-token errors are OSErrors; a Hub it cannot
+#: connect to raises httpx errors, also reported in one line) and a missing optional dependency
+#: (ImportError naming the extra to install)
 USER_ERRORS = (ValueError, OSError, ImportError)
 TRACEBACK_ENV = "FORCEMAP_TRACEBACK"
 
@@ -83,12 +84,26 @@ def cli(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         return main(argv)
-    except USER_ERRORS as err:
-        if os.environ.get(TRACEBACK_ENV, "") not in ("", "0"):
+    except Exception as err:
+        network = _network_errors()
+        if not isinstance(err, (*USER_ERRORS, *network)) or os.environ.get(TRACEBACK_ENV, "") not in (
+            "",
+            "0",
+        ):
             raise
+        if isinstance(err, network):  # not OSErrors: huggingface_hub >= 1.0 talks to the Hub through httpx
+            err = f"cannot reach the Hub ({type(err).__name__}: {err})"
         prog = f"forcemap {_command(argv)}"  # main() parsed argv, so a subcommand was named
         print(f"{prog}: error: {err}\n(set {TRACEBACK_ENV}=1 for the traceback)", file=sys.stderr)
         return 2
+
+
+def _network_errors() -> tuple[type[BaseException], ...]:
+    try:
+        import httpx
+    except ImportError:
+        return ()
+    return (httpx.HTTPError,)
 
 
 if __name__ == "__main__":

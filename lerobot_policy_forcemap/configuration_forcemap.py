@@ -40,6 +40,7 @@ __all__ = [
     "RUNTIME_FIELDS",
     "SEGMENT_SOURCES",
     "DEFAULT_STREAM_WEIGHTS",
+    "config_error_detail",
     "elmap_param_problem",
 ]
 
@@ -103,6 +104,13 @@ _UNITS = {
     "delta": " m",
     "f_contact": " N",
 }
+
+
+def config_error_detail(err: BaseException) -> str:
+    """One line for a config that did not parse: draccus' own message says only that it failed
+    ("Couldn't instantiate class ForceMapConfig"); the reason (our ``ValueError`` naming the field) is its cause."""
+    cause = err.__cause__ or err.__context__
+    return f"{err}" + (f" ({cause})" if cause is not None else "")
 
 
 def elmap_param_problem(name: str, value: object) -> str | None:

@@ -35,7 +35,7 @@ from torch import Tensor, nn
 
 from .anchoring import object_poses, object_slots, place_skill, provisional_segments, reanchor_segment
 from .checkpoint import DUMMY_PARAMETER, check_safetensors_file, check_skill_values, expected_tensors
-from .configuration_forcemap import RUNTIME_FIELDS, ForceMapConfig
+from .configuration_forcemap import RUNTIME_FIELDS, ForceMapConfig, config_error_detail
 from .episodes import load_episodes
 from .fitting import FitReport, fit_skill
 from .skill import FittedSkill, Reproduction
@@ -407,9 +407,7 @@ def _read_config(pretrained_name_or_path: str | Path, where: object, kwargs: dic
             pretrained_name_or_path, **{k: kwargs[k] for k in _HUB_KWARGS if k in kwargs}
         )
     except Exception as err:  # draccus' ParsingError/DecodingError, hub errors, our own ValueErrors
-        cause = err.__cause__ or err.__context__
-        detail = f"{err}" + (f" ({cause})" if cause is not None else "")
-        raise ValueError(f"{where}: cannot read the policy config: {detail}") from err
+        raise ValueError(f"{where}: cannot read the policy config: {config_error_detail(err)}") from err
 
 
 def _refuse_changed_fit_settings(config: ForceMapConfig, stored: ForceMapConfig, where: object) -> None:

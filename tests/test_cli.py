@@ -51,3 +51,31 @@ def test_an_offline_hub_is_one_line_too(capsys, monkeypatch):
     assert cli(["push", "--dataset", str(dataset), "--repo-id", "someone/press-demos"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("forcemap push: error:") and "offline mode" in err
+
+
+def test_an_unreachable_hub_is_one_line_too(capsys, monkeypatch):
+    """huggingface_hub >= 1.0 raises httpx errors (not OSErrors) when it cannot connect."""
+    import httpx
+
+    import lerobot_forcemap.experiments.push as push
+
+    def unreachable(*args, **kwargs):
+        raise httpx.ConnectError("[Errno 111] Connection refused")
+
+    monkeypatch.setattr(push, "push_dataset", unreachable)
+    monkeypatch.delenv(TRACEBACK_ENV, raising=False)
+    dataset = Path(__file__).resolve().parents[1] / "datasets" / "press"
+    assert cli(["push", "--dataset", str(dataset), "--repo-id", "someone/press-demos"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(
+        "forcemap push: error: cannot reach the Hub (ConnectError: [Errno 111] Connection refused)"
+    )
+    assert "Traceback" not in err
+
+
+def test_a_bad_fit_setting_is_one_line_naming_the_field(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv(TRACEBACK_ENV, raising=False)
+    dataset = Path(__file__).resolve().parents[1] / "datasets" / "press"
+    assert cli(["fit", "--dataset", str(dataset), "--out", str(tmp_path / "o"), "--set", "stiffness=-5"]) == 2
+    err = capsys.readouterr().err
+    assert "forcemap fit: error: --set/--episodes:" in err and "ForceMapConfig.stiffness: must be > 0" in err

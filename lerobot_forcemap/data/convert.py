@@ -264,7 +264,13 @@ def convert_episodes(
                     f"the first episode; convert these recordings into separate datasets"
                 )
             try:
-                rate = float(1.0 / np.median(np.diff(rec.wrench_time)))
+                # repeated timestamps (merged later by align_recording) must not shrink the median step
+                distinct = np.unique(rec.wrench_time)
+                if len(distinct) < 2:
+                    raise ValueError(
+                        f"stream 'wrench': {len(distinct)} distinct timestamp(s), need at least 2"
+                    )
+                rate = float(1.0 / np.median(np.diff(distinct)))
                 lowpass = resolve_lowpass_hz(force_lowpass_hz, fps, rate)
                 a = align_recording(
                     rec,

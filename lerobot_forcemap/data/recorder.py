@@ -115,14 +115,24 @@ class GbtiKey:
 
 def _group(parent: h5py.Group, name: str, rec: str) -> h5py.Group:
     if name not in parent or not isinstance(parent[name], h5py.Group):
-        raise ValueError(f"recording {rec!r}: missing group {name!r} (found {sorted(parent.keys())})")
+        found = sorted(parent.keys())
+        what = f"{name!r} is not a group" if name in parent else f"missing group {name!r}"
+        hint = ""
+        if parent.name == "/" and found and all(_looks_like_gbti_object(parent[k]) for k in found):
+            hint = "; this looks like a GBTI file (object/UserN/PositionM groups): pass --gbti"
+        raise ValueError(f"recording {rec!r}: {what} (found {found}){hint}")
     return parent[name]
+
+
+def _looks_like_gbti_object(item: h5py.Group | h5py.Dataset) -> bool:
+    return isinstance(item, h5py.Group) and any(re.fullmatch(r"User\d+", k) for k in item)
 
 
 def _array(group: h5py.Group, name: str, rec: str, cols: int | None) -> F64:
     path = f"{group.name.rsplit('/', 1)[-1]}/{name}"
     if name not in group or not isinstance(group[name], h5py.Dataset):
-        raise ValueError(f"recording {rec!r}: missing dataset {path!r} (found {sorted(group.keys())})")
+        what = f"{path!r} is not a dataset" if name in group else f"missing dataset {path!r}"
+        raise ValueError(f"recording {rec!r}: {what} (found {sorted(group.keys())})")
     arr = np.asarray(group[name][()], dtype=np.float64)
     if cols is None:  # (n,) or (n, 1) -> (n,)
         if arr.ndim == 2 and arr.shape[1] == 1:
@@ -259,7 +269,10 @@ def gbti_keys(path: str | Path) -> list[GbtiKey]:
                 if not isinstance(f[obj][user], h5py.Group):
                     continue
                 for pos in f[obj][user]:
-                    if not isinstance(f[obj][user][pos], h5py.Group) or "wrench_info" not in f[obj][user][pos]:
+                    if (
+                        not isinstance(f[obj][user][pos], h5py.Group)
+                        or "wrench_info" not in f[obj][user][pos]
+                    ):
                         raise ValueError(
                             f"{path}: {obj}/{user}/{pos} is not a GBTI demo group (not a GBTI file? a lab-"
                             "recorder file is converted without --gbti)"

@@ -51,6 +51,7 @@ __all__ = [
     "TimeCleaning",
     "AlignedRecording",
     "clean_times",
+    "describe_gaps",
     "estimate_wrench_bias",
     "tare_wrench",
     "wrench_to_base",
@@ -344,6 +345,26 @@ def interp_linear(times: F64, values: F64, query: F64) -> F64:
 # ---- alignment -----------------------------------------------------------------------------------
 
 
+#: a time step this many times the median is a gap (dropped samples); real recordings stay below 4.1x
+GAP_FACTOR = 5.0
+
+
+def describe_gaps(times: F64, factor: float = GAP_FACTOR) -> str:
+    """A description of the steps of ``times`` longer than ``factor`` × the median step ('' if none)."""
+    step = np.diff(times)
+    if len(step) == 0:
+        return ""
+    median = float(np.median(step))
+    big = np.flatnonzero(step > factor * median)
+    if len(big) == 0:
+        return ""
+    i = int(big[np.argmax(step[big])])
+    return (
+        f"{len(big)} gap(s) in time longer than {factor:g}x the median step ({median * 1e3:.2f} ms); the "
+        f"longest, {step[i]:.3f} s, after sample {i} ({times[i] - times[0]:.3f} s from the stream's start)"
+    )
+
+
 def align_recording(
     rec: Recording,
     *,
@@ -398,6 +419,10 @@ def align_recording(
                 f"(first at sample {info.first_duplicate_index}); collapsed to their mean"
             )
     rates = {s: float(1.0 / np.median(np.diff(t))) for s, (t, _) in cleaned.items()}
+    for stream, (t, _) in cleaned.items():
+        gap = describe_gaps(t)
+        if gap:
+            note(f"stream {stream!r}: {gap}; the frames across it are interpolated")
 
     start = max(t[0] for t, _ in cleaned.values())
     stop = min(t[-1] for t, _ in cleaned.values())

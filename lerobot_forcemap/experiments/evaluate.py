@@ -110,11 +110,21 @@ def load_policy(path: str | Path, device: str = "cpu"):
     from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 
     import lerobot_policy_forcemap  # noqa: F401  (registers the forcemap policy and env types)
+    from lerobot_policy_forcemap.configuration_forcemap import config_error_detail
 
     path = Path(path)
     if not (path / "config.json").is_file():
         raise ValueError(f"--policy {path}: no config.json (pass a checkpoint's pretrained_model folder)")
-    cfg = PreTrainedConfig.from_pretrained(path)
+    import torch
+
+    if device.startswith("cuda") and not torch.cuda.is_available():
+        raise ValueError(f"--device {device}: no CUDA device on this machine (use --device cpu)")
+    try:
+        cfg = PreTrainedConfig.from_pretrained(path)
+    except Exception as err:  # draccus' ParsingError/DecodingError, JSONDecodeError, the config's ValueErrors
+        raise ValueError(
+            f"--policy {path / 'config.json'}: cannot read the policy config: {config_error_detail(err)}"
+        ) from err
     cfg.device = device
     cfg.pretrained_path = path
     policy = get_policy_class(cfg.type).from_pretrained(path, config=cfg)
@@ -509,6 +519,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    out = Path(args.json)
+    if out.is_dir():  # found before the rollouts, not after
+        raise ValueError(f"--json {out}: is a folder; give the path of the JSON file to write")
     records = evaluate_policy(
         args.policy,
         args.task,
@@ -522,7 +535,6 @@ def run(args: argparse.Namespace) -> int:
     )
     dataset = args.dataset or _dataset_from_train_config(Path(args.policy))
     doc = evaluation_document(args.policy, args.task, args.seed, records, dataset, demo_trace=args.trace)
-    out = Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(doc, indent=1))
     s = doc["summary"]

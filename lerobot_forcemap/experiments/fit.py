@@ -41,7 +41,7 @@ def make_config(episodes: Sequence[int] | None = None, overrides: Sequence[str] 
     """A ``ForceMapConfig`` from ``--set FIELD=VALUE`` strings (parsed by draccus like ``--policy.FIELD``)."""
     import draccus
 
-    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig, config_error_detail
 
     args = [f"--device={device}"]
     for item in overrides:
@@ -55,7 +55,10 @@ def make_config(episodes: Sequence[int] | None = None, overrides: Sequence[str] 
         args.append(f"--{name}={value}")
     if episodes is not None:
         args.append(f"--episodes=[{','.join(str(int(e)) for e in episodes)}]")
-    return draccus.parse(ForceMapConfig, args=args)
+    try:
+        return draccus.parse(ForceMapConfig, args=args)
+    except draccus.utils.DraccusException as err:
+        raise ValueError(f"--set/--episodes: {config_error_detail(err)}") from err
 
 
 def fit_policy(

@@ -27,6 +27,7 @@ __all__ = [
     "plot_force_profile",
     "plot_paths",
     "make_report",
+    "check_eval_document",
     "add_arguments",
     "run",
 ]
@@ -273,7 +274,7 @@ def make_report(docs: Sequence[dict[str, Any]], out: str | Path) -> dict[str, An
     out.mkdir(parents=True, exist_ok=True)
     parts = ["# forcemap evaluation", ""]
     files = [plot_forces(docs, out / "forces.png")]
-    for doc in docs:
+    for i, doc in enumerate(docs):
         parts += [
             f"## {doc['task']} — policy `{doc['policy']}`, seeds {doc['seed']}..{doc['seed'] + doc['summary']['n'] - 1}",
             "",
@@ -282,7 +283,9 @@ def make_report(docs: Sequence[dict[str, Any]], out: str | Path) -> dict[str, An
         demos = doc.get("demonstrations")
         if demos:
             parts += [f"Demonstration figures from `{demos['source']}`.", ""]
-        suffix = "" if len(docs) == 1 else f"_{doc['task']}"
+        # one file per document: two documents of the same task must not overwrite each other's plots
+        same_task = sum(d["task"] == doc["task"] for d in docs)
+        suffix = "" if len(docs) == 1 else f"_{doc['task']}" + (f"_{i}" if same_task > 1 else "")
         for fn, name in (
             (plot_force_profile, f"force_profile{suffix}.png"),
             (plot_paths, f"path3d{suffix}.png"),
@@ -302,6 +305,45 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, help="output folder for report.md and PNGs")
 
 
+def check_eval_document(doc: Any, where: str) -> None:
+    """Raise ``ValueError`` naming ``where`` and the field when ``doc`` is not what ``forcemap eval``
+    writes: the fields the tables and plots read, with their types."""
+
+    def bad(field: str, what: str) -> ValueError:
+        return ValueError(f"{where}: {field} {what} (not a `forcemap eval` document)")
+
+    if not isinstance(doc, dict):
+        raise bad("the document", f"is a JSON {type(doc).__name__}, expected an object")
+    for key, kind in (("task", str), ("policy", str), ("seed", int), ("summary", dict), ("episodes", list)):
+        if key not in doc:
+            raise bad(f"field {key!r}", "is missing")
+        if not isinstance(doc[key], kind) or isinstance(doc[key], bool):
+            raise bad(f"field {key!r}", f"is {type(doc[key]).__name__}, expected {kind.__name__}")
+    summary = doc["summary"]
+    n = summary.get("n")
+    if not isinstance(n, int) or n < 1 or len(doc["episodes"]) != n:
+        raise bad("summary.n", f"is {n!r} for {len(doc['episodes'])} episode record(s); a report needs >= 1")
+    for key in ("success_rate", "protective_stops"):
+        if not isinstance(summary.get(key), (int, float)):
+            raise bad(f"summary.{key}", "is missing or not a number")
+    for i, rec in enumerate(doc["episodes"]):
+        if not isinstance(rec, dict):
+            raise bad(f"episodes[{i}]", "is not an object")
+        trace = rec.get("trace")
+        if trace:
+            cols = trace.get("columns") if isinstance(trace, dict) else None
+            rows = trace.get("rows") if isinstance(trace, dict) else None
+            if not isinstance(cols, list) or not isinstance(rows, list):
+                raise bad(f"episodes[{i}].trace", "needs 'columns' and 'rows' lists")
+            wrong = next(
+                (j for j, r in enumerate(rows) if not isinstance(r, list) or len(r) != len(cols)), None
+            )
+            if wrong is not None:
+                raise bad(
+                    f"episodes[{i}].trace.rows[{wrong}]", f"does not have the {len(cols)} columns {cols}"
+                )
+
+
 def run(args: argparse.Namespace) -> int:
     docs = []
     for p in args.json:
@@ -309,9 +351,7 @@ def run(args: argparse.Namespace) -> int:
             docs.append(json.loads(Path(p).read_text()))
         except (OSError, json.JSONDecodeError) as err:
             raise ValueError(f"--json {p}: cannot read an eval document ({err})") from err
-        for key in ("task", "summary", "episodes"):
-            if key not in docs[-1]:
-                raise ValueError(f"--json {p}: field {key!r} missing (not a `forcemap eval` document)")
+        check_eval_document(docs[-1], f"--json {p}")
     result = make_report(docs, args.out)
     print(result["markdown"])
     print("wrote", ", ".join(result["files"]))

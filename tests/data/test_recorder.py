@@ -52,6 +52,23 @@ def test_missing_parts(tmp_path, skip, message):
         read_recording(path)
 
 
+def test_a_gbti_file_read_as_a_recording_says_to_pass_gbti(tmp_path):
+    path = write_gbti_file(tmp_path / "g.h5", [("Cube", 1, 1)], n=30)
+    with pytest.raises(
+        ValueError,
+        match=r"missing group 'joint_state_info' \(found \['Cube'\]\); this looks like a GBTI file.*--gbti",
+    ):
+        read_recording(path)
+
+
+def test_a_group_where_a_dataset_belongs_is_named_as_such(tmp_path):
+    path = write_recorder_file(tmp_path / "odd.h5", make_streams(n=30), skip=("wrench_info/wrench_force",))
+    with h5py.File(path, "r+") as f:
+        f["wrench_info"].create_group("wrench_force")
+    with pytest.raises(ValueError, match=r"'wrench_info/wrench_force' is not a dataset"):
+        read_recording(path)
+
+
 def test_nan_and_shape_errors_name_field_and_sample(tmp_path):
     st = make_streams(n=30)
     st["force"][11, 2] = np.nan

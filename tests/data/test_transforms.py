@@ -12,6 +12,7 @@ from lerobot_forcemap.data.recorder import GbtiKey, iter_gbti_demos, read_record
 from lerobot_forcemap.data.transforms import (
     align_recording,
     clean_times,
+    describe_gaps,
     estimate_wrench_bias,
     interp_linear,
     tare_wrench,
@@ -137,6 +138,25 @@ def test_align_collapses_a_repeated_first_sample_without_nan(synthetic):
     assert all(np.all(np.isfinite(x)) for x in (a.joint_positions, a.positions, a.force, a.orientations))
     ref = align_recording(rec, n_samples=1000)
     np.testing.assert_allclose(a.joint_positions, ref.joint_positions, atol=1e-12)
+
+
+def test_a_gap_in_a_stream_is_reported_not_bridged_silently(synthetic):
+    """Dropped samples (0.5 s of wrench) are named with their place; the frames across are interpolated."""
+    _, rec = synthetic
+    keep = np.r_[0:150, 200 : len(rec.wrench_time)]
+    gappy = dataclasses.replace(
+        rec,
+        wrench_time=rec.wrench_time[keep],
+        force_tool=rec.force_tool[keep],
+        torque_tool=rec.torque_tool[keep],
+    )
+    with pytest.warns(
+        UserWarning, match=r"stream 'wrench': 1 gap\(s\) .* the longest, 0.510 s, after sample 149"
+    ):
+        a = align_recording(gappy, fps=20)
+    assert any("gap(s) in time" in w for w in a.warnings)
+    assert not any("gap" in w for w in align_recording(rec, fps=20).warnings)
+    assert describe_gaps(np.arange(10.0)) == "" and describe_gaps(np.array([0.0])) == ""
 
 
 def test_align_bad_gripper_range_names_sample(synthetic):

@@ -132,3 +132,27 @@ def test_rollout_keeps_per_finger_force_metrics():
     assert len(rec["metrics"]["max_finger_force"]) == 3
     assert len(rec["metrics"]["mean_finger_force"]) == 3
     assert all(np.isfinite(rec["metrics"]["max_finger_force"]))
+
+
+def test_a_checkpoint_config_that_does_not_read_is_named(press_checkpoint, tmp_path):
+    """Broken JSON, or a config whose fitted sizes disagree: one ValueError naming the file and the field."""
+    import shutil
+
+    from lerobot_forcemap.experiments.evaluate import load_policy
+
+    ckpt = tmp_path / "ckpt"
+    shutil.copytree(press_checkpoint, ckpt)
+    data = json.loads((ckpt / "config.json").read_text())
+    (ckpt / "config.json").write_text(json.dumps({**data, "n_segments": data["n_segments"] + 1}))
+    with pytest.raises(
+        ValueError, match=r"config.json: cannot read the policy config: .*ForceMapConfig.segment_n_nodes"
+    ):
+        load_policy(ckpt)
+    (ckpt / "config.json").write_text("{bad json")
+    with pytest.raises(
+        ValueError, match=r"config.json: cannot read the policy config: Expecting property name"
+    ):
+        load_policy(ckpt)
+    if not __import__("torch").cuda.is_available():
+        with pytest.raises(ValueError, match="--device cuda: no CUDA device"):
+            load_policy(press_checkpoint, device="cuda")

@@ -98,3 +98,35 @@ def test_cli_report_writes_markdown_and_plots(tmp_path, capsys):
     for name in ("forces.png", "force_profile.png", "path3d.png"):
         assert (tmp_path / "r" / name).stat().st_size > 5000, name
     assert "-56%" in capsys.readouterr().out
+
+
+def test_two_documents_of_one_task_keep_their_own_plots(tmp_path):
+    paths = []
+    for i, doc in enumerate((_doc(), {**_doc(), "seed": 2000})):
+        paths.append(tmp_path / f"eval{i}.json")
+        paths[-1].write_text(json.dumps(doc))
+    assert main(["report", "--json", *map(str, paths), "--out", str(tmp_path / "r")]) == 0
+    md = (tmp_path / "r" / "report.md").read_text()
+    for i in (0, 1):
+        assert md.count(f"force_profile_press_{i}.png") == 2  # ![name](name)
+        assert (tmp_path / "r" / f"path3d_press_{i}.png").is_file()
+
+
+def test_what_is_not_an_eval_document_is_named(tmp_path):
+    import pytest
+
+    good = _doc()
+    bad_trace = _doc()
+    bad_trace["episodes"][1]["trace"]["rows"][3] = [0.0, 1.0]
+    cases = [
+        (3, "the document is a JSON int"),
+        ({**good, "episodes": [], "summary": summarize([])}, r"summary.n is 0 for 0 episode record\(s\)"),
+        ({k: v for k, v in good.items() if k != "policy"}, "field 'policy' is missing"),
+        ({**good, "seed": "1000"}, "field 'seed' is str, expected int"),
+        (bad_trace, r"episodes\[1\].trace.rows\[3\] does not have the 19 columns"),
+    ]
+    for i, (doc, match) in enumerate(cases):
+        path = tmp_path / f"bad{i}.json"
+        path.write_text(json.dumps(doc))
+        with pytest.raises(ValueError, match=f"--json {path}: {match}"):
+            main(["report", "--json", str(path), "--out", str(tmp_path / "r")])
