@@ -232,6 +232,10 @@ class ForceMapPolicy(PreTrainedPolicy):
             raise ValueError(
                 f"observation {cfg.robot_pose_key!r}: needs [x y z qw qx qy qz], got width {robot.shape[1]}"
             )
+        if robot is not None and np.any(zero := np.linalg.norm(robot[:, 3:7], axis=1) < 1e-9):
+            raise ValueError(
+                f"observation {cfg.robot_pose_key!r}: zero quaternion (qw qx qy qz) at batch row {int(np.argmax(zero))}"
+            )
         env = None
         if cfg.reanchor and any(skill.anchors):
             env = _rows(batch, cfg.env_state_key, n)

@@ -24,6 +24,7 @@ clip reports, and the task's metrics. Forces are sampled at physics rate after a
 
 from __future__ import annotations
 
+import warnings
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -258,6 +259,8 @@ class ForceTaskEnv(gym.Env):
         self._protective_stop = False
         self._status = TaskStatus()
         self._episode_started = True
+        self._ended = False  # terminated (success, failure or protective stop)
+        self._warned_ended = False
         self._last_clip = ClipReport()
         self._clip_gripper = False  # the last step's clip reports, cleared with the episode
         return self._observation(), self._info()
@@ -277,6 +280,14 @@ class ForceTaskEnv(gym.Env):
     def step(self, action):
         if not self._episode_started:
             raise RuntimeError("call reset() before step()")
+        if self._ended and not self._warned_ended:
+            # a real arm stays stopped after a protective stop; the simulation would go on from there
+            warnings.warn(
+                f"step() after the episode ended ({self._info()['termination_reason']}); the simulation "
+                "continues, but call reset() to start a new episode",
+                stacklevel=2,
+            )
+            self._warned_ended = True
         a = np.asarray(action, dtype=float).reshape(-1)
         if a.shape != (ACTION_DIM,):
             raise ValueError(
@@ -338,6 +349,7 @@ class ForceTaskEnv(gym.Env):
         self._status = t.update(d, block)
         success = self._status.success and not self._protective_stop
         terminated = bool(self._protective_stop or self._status.success or self._status.failed)
+        self._ended = self._ended or terminated
         obs = self._observation()
         info = self._info()
         return obs, float(success), terminated, False, info

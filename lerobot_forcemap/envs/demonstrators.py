@@ -564,6 +564,13 @@ class GraspDemonstrator(ScriptedDemonstrator):
 
     # ---- episode -----------------------------------------------------------------------------------------
     def reset(self, obs: dict) -> None:
+        from ..layout import ENV_FINGER_FORCE
+
+        if ENV_FINGER_FORCE not in obs:  # it squeezes until the fingertips feel the target force
+            raise ValueError(
+                f"{type(self).__name__}: the observation has no {ENV_FINGER_FORCE!r}; the grasp demonstrators "
+                "need a gripper with fingertip force sensors (the Gen3's three-finger gripper)"
+            )
         r = self.rng
         self.t = 0.0
         self.start = np.asarray(obs[ENV_EE_POSE][EE_POS], float)

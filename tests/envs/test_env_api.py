@@ -86,3 +86,25 @@ def test_clipping_is_reported_not_silent():
     assert not (info["target_clipped"] or info["clip_gripper"] or info["clip_workspace"])
     assert info["n_clipped_steps"] == 0
     assert env.action_space.shape == (ACTION_DIM,)
+
+
+def test_stepping_after_the_episode_ended_warns_once():
+    """A protective stop ends the episode; stepping on is simulated but said, once per episode."""
+    import warnings
+
+    env = E.make("press")
+    obs, _ = env.reset(seed=0)
+    down = np.concatenate([obs["ee_pose"], [1.0]])
+    for _ in range(200):
+        down[2] -= 0.01
+        obs, _, terminated, _, info = env.step(down)
+        if terminated:
+            break
+    assert terminated and info["protective_stop"]
+    with pytest.warns(UserWarning, match=r"step\(\) after the episode ended \(protective_stop\)"):
+        env.step(down)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env.step(down)  # said once
+        env.reset(seed=0)
+        env.step(np.concatenate([env.unwrapped.tcp_pose()[0], env.unwrapped.tcp_pose()[1], [1.0]]))

@@ -80,3 +80,18 @@ def test_demonstrator_grasps_the_unseen_objects(task, obj):
 def test_demonstrators_are_seeded(rollouts):
     again = roll("grasp_flip", [3])[0]
     np.testing.assert_array_equal(again["actions"], rollouts("grasp_flip")[3]["actions"])
+
+
+def test_a_gripper_without_fingertip_sensors_is_named():
+    import lerobot_forcemap.envs as E
+    from lerobot_forcemap.envs.demonstrators import make_demonstrator
+
+    env = E.make("grasp_push", robot="ur5e")
+    obs, _ = env.reset(seed=0)
+    demo = make_demonstrator(
+        "grasp_push", np.random.default_rng(0), state_names=env.unwrapped.state_names["environment_state"]
+    )
+    with pytest.raises(
+        ValueError, match="no 'finger_force'; the grasp demonstrators need a gripper with fingertip"
+    ):
+        demo.reset(obs)

@@ -136,8 +136,11 @@ def test_failed_recording_leaves_no_dataset_and_keeps_the_old_one(tmp_path, monk
     before = _tree(old)
     monkeypatch.setattr(demonstrators, "make_demonstrator", lambda task, rng, **kw: _IdleDemonstrator(rng))
     for out, overwrite in ((tmp_path / "new", False), (old, True)):
-        with pytest.raises(
-            RuntimeError, match=r"only 0 of 1 demonstrations succeeded in 1 attempts.*nothing written"
+        with (
+            pytest.raises(
+                RuntimeError, match=r"only 0 of 1 demonstrations succeeded in 1 attempts.*nothing written"
+            ),
+            pytest.warns(UserWarning, match="demonstration with seed 0 failed"),
         ):
             record_demonstrations("press", 1, 0, out, max_attempts=1, overwrite=overwrite, progress=False)
     assert not (tmp_path / "new").exists()

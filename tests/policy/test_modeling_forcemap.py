@@ -111,6 +111,13 @@ def test_missing_observation_and_unfitted_policy_are_clear_errors(policy):
     policy.reset()
     with pytest.raises(ValueError, match="observation 'observation.environment_state' is missing"):
         policy.select_action(obs)
+    obs = _scene(batch=2)
+    obs["observation.ee_pose"][1, 3:7] = 0.0
+    policy.reset()
+    with pytest.raises(
+        ValueError, match=r"observation 'observation.ee_pose': zero quaternion .* at batch row 1"
+    ):
+        policy.select_action(obs)
     empty = ForceMapPolicy(ForceMapConfig(device="cpu"))
     with pytest.raises(ValueError, match="not fitted"):
         empty.select_action(_scene())
