@@ -77,7 +77,7 @@ static void scan(const double *x, int64_t c, int64_t N, int64_t d, const double 
     }
     double dc = dist[c - lo];
     double outside = reach[c] - dc, outside_best = INFINITY;
-    int64_t outside_bi = -1;
+    int64_t outside_bi = N; /* none yet: never preferred in a tie, and no index is ever read from it */
     if (!(best + slack < outside)) {
         double far = 2.0 * dc + slack, far2 = far * far, pruned2 = INFINITY, second_out = INFINITY;
         for (int64_t i = 0; i < N; i++) {

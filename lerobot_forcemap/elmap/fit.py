@@ -72,6 +72,8 @@ DEFAULT_F_CONTACT = 2.0
 #: N/m — chosen so that r = F/(k·δ) stays below rho_max = 0.75 up to F = 100 N at δ = 1 cm
 #: (100 / (15000 · 0.01) = 0.67); a node in steady contact then lifts by F/k (6.7 mm at 100 N).
 DEFAULT_STIFFNESS = 15000.0
+#: largest |coordinate| (and δ) accepted: squared distances of 1e150 stay finite in float64
+MAX_COORDINATE = 1e150
 
 
 @dataclass(frozen=True)
@@ -480,8 +482,8 @@ def fit_force_elastic_map(
         plain elastic map.
     n_nodes (N >= 3); lam, mu >= 0 stretching / bending; delta (m) force-point offset; f_contact (N);
     stiffness k (N/m); rho_max in (0, 1) caps r = Σ|w_force|/Σw_demo per node and axis (None: off);
-    force_limit (N): half-space constraints keeping nodes of samples above it at least
-    (|f| − force_limit)/k behind the demonstrated contact along the force direction (Clarabel).
+    force_limit (N): half-space constraints keeping nodes of contact samples (‖f‖ > f_contact) above it
+    at least (|f| − force_limit)/k behind the demonstrated contact along the force direction (Clarabel).
     times: per-demo timestamps (T,), default uniform; orientations: per-demo (T, 4) w-first quaternions;
     weights: per-sample demo weights (T,) or (T, d), positive. solver: "auto", "banded", "clarabel".
     """
@@ -489,17 +491,28 @@ def fit_force_elastic_map(
     demos = _as_demo_list(positions, "positions")
     _check_finite(demos, "positions")
     dim = demos[0].shape[1]
+    if dim < 1:
+        raise ValueError(f"positions: need at least 1 coordinate per sample, got shape {demos[0].shape}")
     for k, a in enumerate(demos):
         if a.shape[1] != dim:
             raise ValueError(f"positions[{k}]: dimension {a.shape[1]} differs from positions[0]'s {dim}")
         if a.shape[0] < 2:
             raise ValueError(f"positions[{k}]: need at least 2 samples, got {a.shape[0]}")
+        if np.max(np.abs(a)) > MAX_COORDINATE:
+            raise ValueError(
+                f"positions[{k}]: |coordinate| up to {np.max(np.abs(a)):.3g}; above {MAX_COORDINATE:g} squared "
+                "distances overflow float64 (choose other units)"
+            )
     if isinstance(n_nodes, bool) or not isinstance(n_nodes, (int, np.integer)) or n_nodes < 3:
         raise ValueError(f"n_nodes: need an integer >= 3, got {n_nodes!r}")
     n_nodes = int(n_nodes)
     lam = _check_scalar("lam", lam)
     mu = _check_scalar("mu", mu)
     delta = _check_scalar("delta", delta)
+    if delta > MAX_COORDINATE:
+        raise ValueError(
+            f"delta: {delta:g} is above {MAX_COORDINATE:g} (force points would overflow float64)"
+        )
     f_contact = _check_scalar("f_contact", f_contact)
     stiffness = _check_scalar("stiffness", stiffness, strict=True)
     if rho_max is not None:
@@ -615,7 +628,8 @@ def fit_force_elastic_map(
     limit_src = None
     if f is not None and force_limit is not None:
         fn = np.linalg.norm(f, axis=1)
-        limit_src = np.flatnonzero(fn > force_limit)
+        # contact samples only (SPEC §1): a touch below f_contact is no contact, whatever force_limit is
+        limit_src = np.flatnonzero((fn > force_limit) & (fn > max(f_contact, 0.0)))
         limit_normal = f[limit_src] / fn[limit_src, None]
         limit_lower = (
             np.einsum("ij,ij->i", limit_normal, x[limit_src]) + (fn[limit_src] - force_limit) / stiffness
@@ -662,6 +676,8 @@ def fit_force_elastic_map(
             y_new = solve_m_step_clarabel(W, b, S, lam, mu, rc, extra)
         else:
             y_new = banded.solve(W, b, S, previous=y)
+        if not np.all(np.isfinite(y_new)):  # defensive: the input checks should make this unreachable
+            raise FloatingPointError(f"M-step {it}: non-finite nodes (the data's scale overflows float64?)")
         energy = energy_terms(y_new, W, b, S, lam, mu)
         history.append(energy.total)
         moved = float(np.max(np.abs(y_new - y)))

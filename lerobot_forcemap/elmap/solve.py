@@ -332,12 +332,52 @@ def solve_m_step_clarabel(
     else:
         A = sp.csc_matrix((0, nv))
         bvec = np.zeros(0)
-    solver = clarabel.DefaultSolver(P, q, A, bvec, cones, _clarabel_settings(tol))
+    # Solve for z with γ = c + L·z (c the clusters' centre, L their extent) and the objective scaled to
+    # unit curvature: Clarabel's tolerances are absolute, so in raw coordinates the answer depended on
+    # the units (micrometre-scale data came out visibly wrong, millimetres stalled the solver). The
+    # cones are invariant to positive scaling, so A z + s' = (b − A c)/L describes the same set.
+    centre, extent = _normalisation(W, b, constraints)
+    c_vec = np.repeat(centre, n)  # stacked axis-major, like γ
+    P_full = P + sp.triu(P, 1, format="csc").T
+    curvature = max(float(np.max(np.abs(P.diagonal()))) if nv else 1.0, 1e-300)
+    P_z = (P / curvature).tocsc()
+    q_z = (P_full @ c_vec + q) / (extent * curvature)
+    b_z = (bvec - A @ c_vec) / extent
+    solver = clarabel.DefaultSolver(P_z, q_z, A, b_z, cones, _clarabel_settings(tol))
     sol = solver.solve()
     status = sol.status
     if status in (clarabel.SolverStatus.PrimalInfeasible, clarabel.SolverStatus.AlmostPrimalInfeasible):
-        what = "constraints and force_limit" if extra is not None and len(extra) else "constraints"
+        user = bool(
+            k_eq
+            or constraints.box_lo is not None
+            or len(constraints.halfspace_normals)
+            or constraints.max_step is not None
+        )
+        limits = extra is not None and len(extra) > 0
+        what = (
+            "constraints and force_limit" if user and limits else ("force_limit" if limits else "constraints")
+        )
         raise ValueError(f"{what}: the constraint set is infeasible (Clarabel status {status})")
     if status not in (clarabel.SolverStatus.Solved, clarabel.SolverStatus.AlmostSolved):
         raise RuntimeError(f"Clarabel M-step failed with status {status}")
-    return np.asarray(sol.x).reshape(d, n).T.copy()
+    return (c_vec + extent * np.asarray(sol.x)).reshape(d, n).T.copy()
+
+
+def _normalisation(W: Array, b: Array, constraints: ResolvedConstraints) -> tuple[Array, float]:
+    """Centre (d,) and extent (> 0) of the cluster means ``b / W`` and the fixed node values."""
+    filled = W > 0
+    means = np.where(filled, b / np.where(filled, W, 1.0), np.nan)
+    points = [means]
+    if len(constraints.fixed_index):
+        points.append(np.asarray(constraints.fixed_value, dtype=float).reshape(-1, W.shape[1]))
+    pts = np.concatenate(points, axis=0)
+    if not np.isfinite(pts).any():
+        return np.zeros(W.shape[1]), 1.0
+    with np.errstate(invalid="ignore"):
+        lo, hi = np.nanmin(pts, axis=0), np.nanmax(pts, axis=0)
+    lo, hi = np.where(np.isfinite(lo), lo, 0.0), np.where(np.isfinite(hi), hi, 0.0)
+    centre = 0.5 * (lo + hi)
+    extent = float(np.max(hi - lo))
+    if not extent > 0.0:  # every point in one place: any positive unit works
+        extent = max(float(np.max(np.abs(centre))), 1.0)
+    return centre, extent

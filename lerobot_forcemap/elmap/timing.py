@@ -2,7 +2,7 @@
 
 Node i gets the mean normalised time of its cluster's demo samples, made non-decreasing and
 scaled to the segment's demo duration; nodes with empty clusters interpolate between their
-neighbours. Orientations follow by SLERP of the demo orientations at those times.
+neighbours (with a single filled cluster, a demo that does not move, time is spread evenly). Orientations follow by SLERP of the demo orientations at those times.
 """
 
 from __future__ import annotations
@@ -25,7 +25,10 @@ def node_time_law(labels: NDArray[np.intp], normalised_time: Array, n_nodes: int
     sums = np.bincount(labels, weights=normalised_time, minlength=n_nodes)
     filled = counts > 0
     idx = np.arange(n_nodes)
-    if not filled.any():  # cannot happen with >= 1 sample; keep a sane answer anyway
+    if filled.sum() < 2:
+        # One cluster holds every sample (a demo that does not move: a hold, a rotation in place; the
+        # E-step gives tied samples to the lowest node) and says nothing about how time runs along
+        # the map: spread it evenly, as the initial map is spread by index when it has no length.
         frac = np.linspace(0.0, 1.0, n_nodes)
     else:
         frac = np.interp(idx, idx[filled], sums[filled] / counts[filled])

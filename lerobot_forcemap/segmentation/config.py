@@ -30,7 +30,7 @@ def _first_bad_index(mask: np.ndarray) -> tuple[int, ...]:
 
 def _real(value: object) -> float:
     """``float(value)``, or NaN for what is not a real number (so the caller's check names the field)."""
-    if isinstance(value, bool):
+    if isinstance(value, (bool, str, bytes)):  # float("2") would pass, then fail as a str downstream
         return float("nan")
     try:
         return float(value)
@@ -212,7 +212,7 @@ class SegmentationConfig:
             f"polyorder must be an int with 3 <= polyorder < window, got {self.polyorder!r}",
         )
         need(
-            np.isfinite(self.peak_ratio) and self.peak_ratio >= 1.0,
+            np.isfinite(_real(self.peak_ratio)) and _real(self.peak_ratio) >= 1.0,
             f"peak_ratio must be >= 1, got {self.peak_ratio!r}",
         )
         need(
@@ -220,7 +220,8 @@ class SegmentationConfig:
             f"duplicate_times must be one of {DUPLICATE_TIMES}, got {self.duplicate_times!r}",
         )
         need(
-            self.time_tolerance is None or (np.isfinite(self.time_tolerance) and self.time_tolerance >= 0),
+            self.time_tolerance is None
+            or (np.isfinite(_real(self.time_tolerance)) and _real(self.time_tolerance) >= 0),
             f"time_tolerance must be None or >= 0 seconds, got {self.time_tolerance!r}",
         )
 

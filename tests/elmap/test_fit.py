@@ -214,6 +214,18 @@ def test_force_limit_keeps_nodes_behind_the_contact():
     assert np.min(weights_only.nodes[labels[100:300], 2] - need) < -1e-4  # the constraint binds
 
 
+def test_force_limit_applies_to_contact_samples_only():
+    """A touch below f_contact is no contact (no force points): force_limit below f_contact adds no rows."""
+    x = line_demo(n=200, noise=2e-4, seed=6)
+    f = contact_forces(x, 50, 150, 3.0)
+    fit = fit_force_elastic_map(x, f, n_nodes=20, f_contact=5.0, force_limit=1.0)
+    assert fit.n_force_limit_rows == 0
+    np.testing.assert_allclose(
+        fit.nodes, fit_force_elastic_map(x, n_nodes=20, solver="clarabel").nodes, atol=1e-7
+    )
+    assert fit_force_elastic_map(x, f, n_nodes=20, f_contact=2.0, force_limit=1.0).n_force_limit_rows == 100
+
+
 def test_infeasible_constraints_raise_naming_constraints():
     x = line_demo(n=100)
     with pytest.raises(ValueError, match="constraints"):
@@ -233,8 +245,12 @@ def test_infeasible_force_limit_names_force_limit():
     x = line_demo(n=100)
     f = np.zeros_like(x)
     f[50, 2], f[51, 2] = 60.0, -60.0
-    with pytest.raises(ValueError, match="constraints and force_limit: the constraint set is infeasible"):
+    with pytest.raises(ValueError, match="^force_limit: the constraint set is infeasible"):
         fit_force_elastic_map(x, f, n_nodes=10, force_limit=20.0, stiffness=100.0)
+    with pytest.raises(ValueError, match="^constraints and force_limit: the constraint set is infeasible"):
+        fit_force_elastic_map(
+            x, f, n_nodes=10, force_limit=20.0, stiffness=100.0, constraints=Constraints(max_step=1.0)
+        )
 
 
 # ---- force size
@@ -277,6 +293,18 @@ def test_several_demos_and_a_gripper_map():
     plain = fit_force_elastic_map(g, n_nodes=30)
     assert grip.nodes.shape == (30, 1)
     assert grip.nodes.max() < plain.nodes.max() - 0.01  # squeezes less
+
+
+def test_a_demo_that_does_not_move_keeps_its_time_law():
+    """A rotation in place: every sample ties at one node, but time (and so the rotation) must still
+    run along the map, not collapse to the mean time."""
+    t = np.linspace(0.0, 2.0, 100)
+    x = np.tile([0.3, 0.1, 0.2], (100, 1))
+    ang = np.linspace(0.0, np.pi / 2, 100)
+    q = np.stack([np.cos(ang / 2), 0 * ang, 0 * ang, np.sin(ang / 2)], axis=1)
+    fit = fit_force_elastic_map(x, n_nodes=10, times=t, orientations=q)
+    np.testing.assert_allclose(fit.node_times, np.linspace(0.0, 2.0, 10))
+    np.testing.assert_allclose(fit.orientation_at([0.0, 2.0]), q[[0, -1]], atol=1e-9)
 
 
 def test_time_law_and_orientation():
@@ -331,6 +359,9 @@ def test_time_law_and_orientation():
             r"halfspaces\[0\]: offset must be a number",
         ),
         (dict(constraints=Constraints(start=["a", 0, 0])), "constraints.start: expected numbers"),
+        (dict(positions=np.zeros((5, 0))), "positions: need at least 1 coordinate"),
+        (dict(positions=line_demo(n=20) * 1e160), r"positions\[0\]: \|coordinate\| up to .* overflow"),
+        (dict(delta=1e200), "delta: 1e\\+200 is above"),
     ],
 )
 def test_bad_input_names_the_argument(kwargs, field):

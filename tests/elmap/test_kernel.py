@@ -186,3 +186,10 @@ def test_cluster_sums_keep_a_copied_weight_array_alive(lib):
     env.pop(NUMPY_ENV, None)
     run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr[-2000:]
+
+
+def test_unreachable_nodes_never_give_a_negative_label(lib):
+    """Nodes whose squared distances overflow tie at inf: the label must still be a node (it indexes
+    the sums; -1 wrote before the arrays). Ties go to the lowest index, as in NumPy."""
+    kernel = EMKernel(lib, np.array([[0.0], [1.0], [2.0]]), 2.0)
+    np.testing.assert_array_equal(kernel.assign(np.array([[1e200], [2e200], [3e200]])), [0, 0, 0])

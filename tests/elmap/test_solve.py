@@ -104,3 +104,25 @@ def test_clarabel_reports_infeasible_constraints():
     )  # y <= -1 and y >= 1
     with pytest.raises(ValueError, match="constraints"):
         solve_m_step_clarabel(W, b, S, 0.1, 0.01, rc)
+
+
+@pytest.mark.parametrize("scale,offset", [(1e-6, 0.0), (1e-3, 0.0), (1e3, 0.0), (1.0, 10.0), (1.0, -1e3)])
+def test_clarabel_is_equivariant_to_units_and_translation(scale, offset):
+    """The energy is quadratic: fitting in millimetres or micrometres, or 10 m away, must give the same
+    nodes up to that change of units (Clarabel's absolute tolerances once made it differ by 16 %)."""
+    n, d = 30, 2
+    W, b, S = random_problem(n, d, seed=12, empty=0.1)
+    box = ([-0.4, -np.inf], [0.4, 0.25])
+    half = [([1.0, 1.0], 0.35)]
+    ref = solve_m_step_clarabel(
+        W, b, S, 0.01, 0.01, resolve_constraints(Constraints(box=box, halfspaces=half, max_step=0.1), n, d)
+    )
+    lo, hi = (np.asarray(v) * scale + offset for v in box)
+    rc = resolve_constraints(
+        Constraints(box=(lo, hi), halfspaces=[([1.0, 1.0], 0.35 * scale + 2 * offset)], max_step=0.1 * scale),
+        n,
+        d,
+    )
+    # cluster sums of the moved data: b = W·mean, S unchanged; λ, μ act on differences (scale²: energy ratio kept)
+    y = solve_m_step_clarabel(W, W * ((b / np.where(W > 0, W, 1)) * scale + offset), S, 0.01, 0.01, rc)
+    np.testing.assert_allclose((y - offset) / scale, ref, atol=1e-7 * max(1.0, abs(offset) / scale * 1e-3))

@@ -170,6 +170,9 @@ def test_other_bad_input() -> None:
         ({"min_segment_length": 0}, "min_segment_length"),
         ({"polyorder": 2}, "polyorder"),
         ({"peak_ratio": 0.5}, "peak_ratio"),
+        ({"peak_ratio": "2"}, "peak_ratio must be >= 1, got '2'"),
+        ({"peak_ratio": None}, "peak_ratio must be >= 1, got None"),
+        ({"time_tolerance": "0.1"}, "time_tolerance must be None or >= 0 seconds, got '0.1'"),
         ({"duplicate_times": "ignore"}, "duplicate_times"),
     ],
 )
