@@ -80,7 +80,7 @@ TRACEBACK_ENV = "FORCEMAP_TRACEBACK"
 
 
 def cli(argv: list[str] | None = None) -> int:
-    """The ``forcemap`` console script: :func:`main` with bad input reported as one line, exit 2."""
+    """The ``forcemap`` console script: :func:`main` with bad input reported as one error line (plus a hint), exit 2."""
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         return main(argv)
