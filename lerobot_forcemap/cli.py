@@ -86,10 +86,8 @@ def cli(argv: list[str] | None = None) -> int:
         return main(argv)
     except Exception as err:
         network = _network_errors()
-        if not isinstance(err, (*USER_ERRORS, *network)) or os.environ.get(TRACEBACK_ENV, "") not in (
-            "",
-            "0",
-        ):
+        wants_traceback = os.environ.get(TRACEBACK_ENV, "") not in ("", "0")
+        if wants_traceback or not isinstance(err, (*USER_ERRORS, *network)):
             raise
         if isinstance(err, network):  # not OSErrors: huggingface_hub >= 1.0 talks to the Hub through httpx
             err = f"cannot reach the Hub ({type(err).__name__}: {err})"
