@@ -20,6 +20,8 @@ __all__ = [
     "expected_tensors",
     "check_safetensors_file",
     "check_skill_values",
+    "check_processor_files",
+    "PROCESSOR_FILES",
 ]
 
 #: fitted arrays are stored in float64 (bit-exact round trips, no float32 rounding of node positions)
@@ -100,13 +102,21 @@ def check_skill_values(arrays: dict[str, np.ndarray], config: ForceMapConfig, so
             raise ValueError(
                 f"{source}: tensor {name!r} has {int(bad.sum())} non-finite value(s), first at {np.argwhere(bad)[0].tolist()}"
             )
+    durations = arrays["durations"]
+    if np.any(durations <= 0):
+        raise ValueError(f"{source}: tensor 'durations' must be > 0, got {durations.tolist()}")
     offsets = {"node_times": config.segment_n_nodes, "gripper_node_times": config.segment_n_gripper_nodes}
     for name, sizes in offsets.items():
         for s, part in enumerate(np.split(arrays[name], np.cumsum(sizes)[:-1])):
             if np.any(np.diff(part) < 0):
                 raise ValueError(f"{source}: tensor {name!r} decreases within segment {s}")
-    if np.any(arrays["durations"] <= 0):
-        raise ValueError(f"{source}: tensor 'durations' must be > 0, got {arrays['durations'].tolist()}")
+            # node times run from the segment's start (0) to its end (its duration); float32 slack
+            slack = 1e-6 * max(1.0, float(durations[s]))
+            if part.size and (part[0] < -slack or part[-1] > durations[s] + slack):
+                raise ValueError(
+                    f"{source}: tensor {name!r} in segment {s} spans [{part[0]:.6g}, {part[-1]:.6g}] s, "
+                    f"outside the segment's [0, {durations[s]:.6g}] s (tensor 'durations')"
+                )
     for name, quats in (
         ("orientations", arrays["orientations"]),
         ("anchor_poses", arrays["anchor_poses"][:, 3:7]),  # [x y z qw qx qy qz] per segment
@@ -118,3 +128,55 @@ def check_skill_values(arrays: dict[str, np.ndarray], config: ForceMapConfig, so
             raise ValueError(
                 f"{source}: tensor {name!r} row {i} is not a unit quaternion (norm {norms[i]:.6g})"
             )
+
+
+#: LeRobot's pre-/post-processor pipelines saved next to the policy (``make_pre_post_processors`` reads them)
+PROCESSOR_FILES = ("policy_preprocessor.json", "policy_postprocessor.json")
+
+
+def check_processor_files(folder: str | Path, *, required: bool) -> None:
+    """Raise ``ValueError`` naming the file unless the processor pipelines in ``folder`` are readable.
+
+    LeRobot reports a truncated state file as a bare ``SafetensorError`` and a broken pipeline JSON as a
+    JSON error, neither naming the file, and a missing pipeline as a checkpoint "requiring migration".
+    ``required``: whether the pipelines must be there (``lerobot-eval``/``forcemap eval``/``push`` load
+    them; ``ForceMapPolicy.from_pretrained`` alone does not).
+    """
+    import json
+
+    from safetensors import SafetensorError, safe_open
+
+    folder = Path(folder)
+    for name in PROCESSOR_FILES:
+        path = folder / name
+        if not path.is_file():
+            if required:
+                raise ValueError(
+                    f"{path}: file not found (a checkpoint saved by lerobot-train or forcemap fit has "
+                    f"{' and '.join(PROCESSOR_FILES)} next to config.json)"
+                )
+            continue
+        try:
+            pipeline = json.loads(path.read_text())
+        except (json.JSONDecodeError, UnicodeDecodeError) as err:
+            raise ValueError(f"{path}: not valid JSON ({err})") from err
+        steps = pipeline.get("steps") if isinstance(pipeline, dict) else None
+        if not isinstance(steps, list):
+            raise ValueError(f"{path}: expected a JSON object with a 'steps' list")
+        for i, step in enumerate(steps):
+            state_file = step.get("state_file") if isinstance(step, dict) else None
+            if state_file is None:
+                continue
+            state = folder / str(state_file)
+            if Path(str(state_file)).name != str(state_file) or state.suffix != ".safetensors":
+                raise ValueError(
+                    f"{path}: steps[{i}].state_file {state_file!r} must name a .safetensors file in {folder}"
+                )
+            if not state.is_file():
+                raise ValueError(f"{state}: file not found ({path} steps[{i}] needs it)")
+            try:
+                with safe_open(str(state), framework="pt") as f:
+                    for key in f.keys():  # noqa: SIM118
+                        f.get_slice(key)
+            except (SafetensorError, OSError, ValueError) as err:
+                raise ValueError(f"{state}: not a readable safetensors file ({err})") from err

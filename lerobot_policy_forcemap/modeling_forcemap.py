@@ -34,7 +34,13 @@ from lerobot.policies.pretrained import PreTrainedPolicy
 from torch import Tensor, nn
 
 from .anchoring import object_poses, object_slots, place_skill, provisional_segments, reanchor_segment
-from .checkpoint import DUMMY_PARAMETER, check_safetensors_file, check_skill_values, expected_tensors
+from .checkpoint import (
+    DUMMY_PARAMETER,
+    check_processor_files,
+    check_safetensors_file,
+    check_skill_values,
+    expected_tensors,
+)
 from .configuration_forcemap import RUNTIME_FIELDS, ForceMapConfig, config_error_detail
 from .episodes import load_episodes
 from .fitting import FitReport, fit_skill
@@ -195,6 +201,8 @@ class ForceMapPolicy(PreTrainedPolicy):
             raise ValueError(
                 f"{where}: policy type {getattr(config, 'type', type(config).__name__)!r} is not 'forcemap'"
             )
+        if path.is_dir():  # lerobot-eval reads these next, with errors that name no file
+            check_processor_files(path, required=False)
         return super().from_pretrained(pretrained_name_or_path, config=config, **kwargs)
 
     @classmethod
@@ -406,6 +414,11 @@ def _read_config(pretrained_name_or_path: str | Path, where: object, kwargs: dic
     path = Path(str(pretrained_name_or_path))
     if path.is_dir():
         _check_config_json(path / "config.json")
+    elif path.is_absolute() or str(pretrained_name_or_path).startswith(".") or len(path.parts) != 2:
+        # not a folder and not shaped like a Hub repo id: LeRobot would say "Repo id must be in the form"
+        raise ValueError(
+            f"{pretrained_name_or_path}: no such checkpoint folder (nor a Hub repo id owner/name)"
+        )
     try:
         return PreTrainedConfig.from_pretrained(
             pretrained_name_or_path, **{k: kwargs[k] for k in _HUB_KWARGS if k in kwargs}
@@ -438,9 +451,12 @@ def _check_config_json(path: Path) -> None:
         raise ValueError(f"{path}: expected a JSON object, got {type(data).__name__}")
     if data.get("type") != "forcemap":
         raise ValueError(f"{path}: field 'type' is {data.get('type')!r}, expected 'forcemap'")
-    for name in ("n_segments", "segment_n_nodes", "segment_n_gripper_nodes", "segment_anchors", "fps"):
+    # Every setting the maps were fitted with must be stored: a missing one would be filled with today's
+    # default, so free segments re-solved at reset (and the task check) would silently differ from the fit.
+    required = (*ForceMapConfig.fitted_field_names(), *ForceMapConfig.fit_field_names())
+    for name in (*required, "input_features", "output_features"):
         if name not in data:
-            raise ValueError(f"{path}: field {name!r} is missing (not a fitted forcemap checkpoint)")
+            raise ValueError(f"{path}: field {name!r} is missing (not a complete fitted forcemap checkpoint)")
     for name in ("segment_n_nodes", "segment_n_gripper_nodes"):
         if not isinstance(data[name], list) or not all(
             isinstance(v, int) and not isinstance(v, bool) for v in data[name]

@@ -10,16 +10,21 @@ description that :func:`lerobot_forcemap.data.schema.write_dataset_card` stored 
 
 from __future__ import annotations
 
+import fnmatch
 import json
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from lerobot_forcemap.data.schema import require_dataset_root
 
-__all__ = ["CARD_FILE", "card_kwargs", "check_repo_id", "push_dataset"]
+__all__ = ["CARD_FILE", "DATASET_UPLOAD_PATTERNS", "card_kwargs", "check_repo_id", "push_dataset"]
 
 CARD_FILE = "meta/forcemap_card.json"
+#: what a LeRobot v3 dataset folder holds (``upload_folder`` globs; ``*`` crosses folders): anything else
+#: there (a ``.env``, notes, a half-written ``.partial``) stays local, and is named
+DATASET_UPLOAD_PATTERNS = ("data/*", "meta/*", "videos/*", "README.md", ".gitattributes")
 
 
 def check_repo_id(repo_id: str) -> str:
@@ -35,7 +40,12 @@ def card_kwargs(root: str | Path) -> dict[str, Any]:
     path = Path(root) / CARD_FILE
     if not path.is_file():
         return {}
-    card = json.loads(path.read_text())
+    try:
+        card = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise ValueError(f"{path}: not valid JSON ({err})") from err
+    if not isinstance(card, dict):
+        raise ValueError(f"{path}: expected a JSON object, got {type(card).__name__}")
     return {k: card[k] for k in ("tags", "license", "dataset_description") if card.get(k) is not None}
 
 
@@ -62,8 +72,17 @@ def push_dataset(
     kwargs["tags"] = sorted({*kwargs.get("tags", ()), *(tags or ())}) or None
     license_id = kwargs.pop("license", "apache-2.0")
     dataset = LeRobotDataset(repo_id, root=root)
+    left_out = sorted(
+        p.relative_to(root).as_posix()
+        for p in root.rglob("*")
+        if p.is_file()
+        and not any(fnmatch.fnmatch(p.relative_to(root).as_posix(), g) for g in DATASET_UPLOAD_PATTERNS)
+    )
+    if left_out:
+        warnings.warn(f"{root}: not part of the dataset, not uploaded: {left_out}", stacklevel=2)
     dataset.push_to_hub(
         branch=branch,
+        allow_patterns=list(DATASET_UPLOAD_PATTERNS),
         license=license_id,
         tag_version=tag_version,
         push_videos=push_videos,

@@ -110,11 +110,20 @@ def load_policy(path: str | Path, device: str = "cpu"):
     from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 
     import lerobot_policy_forcemap  # noqa: F401  (registers the forcemap policy and env types)
+    from lerobot_policy_forcemap.checkpoint import check_processor_files
     from lerobot_policy_forcemap.configuration_forcemap import config_error_detail
 
     path = Path(path)
     if not (path / "config.json").is_file():
-        raise ValueError(f"--policy {path}: no config.json (pass a checkpoint's pretrained_model folder)")
+        hint = (
+            f"; forcemap eval reads local folders: `hf download {path} --local-dir DIR` first, or "
+            f"`lerobot-eval --policy.path={path}`"
+            if not path.exists() and len(path.parts) == 2 and not path.is_absolute()
+            else ""
+        )
+        raise ValueError(
+            f"--policy {path}: no config.json (pass a checkpoint's pretrained_model folder){hint}"
+        )
     import torch
 
     if device.startswith("cuda") and not torch.cuda.is_available():
@@ -127,7 +136,15 @@ def load_policy(path: str | Path, device: str = "cpu"):
         ) from err
     cfg.device = device
     cfg.pretrained_path = path
-    policy = get_policy_class(cfg.type).from_pretrained(path, config=cfg)
+    check_processor_files(path, required=True)
+    # strict: a config.json of another policy type next to forcemap tensors must not load with random weights
+    try:
+        policy = get_policy_class(cfg.type).from_pretrained(path, config=cfg, strict=True)
+    except RuntimeError as err:  # torch/safetensors: missing or unexpected keys in the state dict
+        raise ValueError(
+            f"--policy {path / 'model.safetensors'}: its tensors do not fit the {cfg.type!r} policy that "
+            f"config.json describes ({' '.join(str(err).split())[:400]})"
+        ) from err
     pre, post = make_pre_post_processors(
         cfg,
         pretrained_path=str(path),
@@ -485,12 +502,22 @@ def _fitted_episodes(policy_path: str | Path) -> list[int]:
     return [int(e) for e in cfg.get("episodes", [])] if cfg.get("type") == "forcemap" else []
 
 
-def _dataset_from_train_config(policy_path: Path) -> Path | None:
-    path = policy_path / "train_config.json"
-    if not path.is_file():
-        return None
-    root = json.loads(path.read_text()).get("dataset", {}).get("root")
-    return Path(root) if root and Path(root).is_dir() else None
+def _default_dataset(policy_path: Path) -> Path | None:
+    """The demonstrations a checkpoint was fitted on, if still there: lerobot-train's ``train_config.json``
+    (``dataset.root``), else ``forcemap fit``'s ``fit_report.json`` (``dataset``)."""
+    for name, field in (("train_config.json", ("dataset", "root")), ("fit_report.json", ("dataset",))):
+        path = policy_path / name
+        if not path.is_file():
+            continue
+        try:
+            value: Any = json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError, UnicodeDecodeError):
+            continue
+        for key in field:
+            value = value.get(key) if isinstance(value, dict) else None
+        if isinstance(value, str) and value and Path(value).is_dir():
+            return Path(value)
+    return None
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -502,7 +529,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--dataset",
         default=None,
-        help="demonstration dataset for the comparison (default: the checkpoint's train_config.json dataset, if any)",
+        help="demonstration dataset for the comparison (default: the dataset named in the checkpoint's "
+        "train_config.json or fit_report.json, if it is still there)",
     )
     parser.add_argument("--trace", action="store_true", help="store per-step force / pose / action traces")
     parser.add_argument(
@@ -533,7 +561,7 @@ def run(args: argparse.Namespace) -> int:
         device=args.device,
         env_state_extras=getattr(args, "env_state_extras", None),
     )
-    dataset = args.dataset or _dataset_from_train_config(Path(args.policy))
+    dataset = args.dataset or _default_dataset(Path(args.policy))
     doc = evaluation_document(args.policy, args.task, args.seed, records, dataset, demo_trace=args.trace)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(doc, indent=1))

@@ -94,7 +94,7 @@ def fit_policy(
     (out / "fit_report.json").write_text(
         json.dumps(
             {
-                "dataset": str(root),
+                "dataset": str(Path(root).resolve()),  # forcemap eval's default comparison, from any cwd
                 "episodes": list(report.episodes),
                 "fps": cfg.fps,
                 "changepoints": [c.tolist() for c in report.changepoints],

@@ -6,26 +6,41 @@
 A dataset goes up through :func:`lerobot_forcemap.data.hub.push_dataset` (LeRobot's dataset push, with
 our card: units, frames, sources). A policy folder (``forcemap fit --out`` or lerobot-train's
 ``checkpoints/last/pretrained_model``) is loaded first, so a corrupted or mismatched checkpoint fails
-here with the loader's message (safetensors only, nothing unpickled); then its config and weights and
-its pre-/post-processor files go to one model repo with LeRobot's ``push_to_hub``, which is what
-``lerobot-eval --policy.path=<repo_id>`` and ``ForceMapPolicy.from_pretrained(<repo_id>)`` read back.
+here with the loader's message (safetensors only, nothing unpickled); then its config and weights, its
+pre-/post-processor files, the fit report and a model card go to one model repo in a single commit,
+which is what ``lerobot-eval --policy.path=<repo_id>`` and ``ForceMapPolicy.from_pretrained(<repo_id>)``
+read back.
 Needs a token (``hf auth login`` or ``HF_TOKEN``) and network access (unset ``HF_HUB_OFFLINE``).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 from ..data.hub import check_repo_id, push_dataset
 
-__all__ = ["push_policy", "add_arguments", "run"]
+__all__ = ["POLICY_UPLOAD_PATTERNS", "push_policy", "add_arguments", "run"]
+
+
+#: what a policy push uploads (LeRobot's own ``push_model_to_hub`` allows the same kinds)
+POLICY_UPLOAD_PATTERNS = ("*.safetensors", "*.json", "*.md")
 
 
 def push_policy(path: str | Path, repo_id: str, *, private: bool | None = None) -> str:
-    """Push the forcemap checkpoint folder ``path`` to the model repo ``repo_id``; returns its URL."""
+    """Push the forcemap checkpoint folder ``path`` to the model repo ``repo_id``; returns its URL.
+
+    Everything is loaded and checked first (policy, both processor pipelines), then written to one
+    temporary folder with a model card and uploaded in a single commit: a bad file fails before
+    anything reaches the Hub, and the repo never holds a policy without its processors.
+    """
+    import tempfile
+
+    from huggingface_hub import HfApi
     from lerobot.policies.factory import make_pre_post_processors  # lazy: heavy imports
 
+    from lerobot_policy_forcemap.checkpoint import check_processor_files
     from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
 
     check_repo_id(repo_id)
@@ -33,10 +48,70 @@ def push_policy(path: str | Path, repo_id: str, *, private: bool | None = None) 
     if not (path / "config.json").is_file():
         raise ValueError(f"{path}: not a policy checkpoint folder (no config.json)")
     policy = ForceMapPolicy.from_pretrained(path)
-    policy.push_to_hub(repo_id, private=private)
-    for processor in make_pre_post_processors(policy.config, pretrained_path=str(path)):
-        processor.push_to_hub(repo_id, private=private)
+    check_processor_files(path, required=True)
+    pre, post = make_pre_post_processors(policy.config, pretrained_path=str(path))
+    report = _fit_report(path)
+    with tempfile.TemporaryDirectory(prefix="forcemap-push-") as tmp:
+        staged = Path(tmp)
+        policy.save_pretrained(staged)
+        pre.save_pretrained(staged)
+        post.save_pretrained(staged)
+        if report is not None:
+            (staged / FIT_REPORT).write_text(json.dumps(report, indent=2))
+        _model_card(policy, report).save(str(staged / "README.md"))
+        api = HfApi()
+        repo_id = api.create_repo(repo_id=repo_id, private=private, exist_ok=True).repo_id
+        api.upload_folder(
+            repo_id=repo_id,
+            repo_type="model",
+            folder_path=staged,
+            commit_message="Upload forcemap policy: config, fitted maps, processors, fit report, card",
+            allow_patterns=list(POLICY_UPLOAD_PATTERNS),
+        )
     return f"https://huggingface.co/{repo_id}"
+
+
+#: ``forcemap fit`` writes this next to the checkpoint (segments, changepoints, EM diagnostics)
+FIT_REPORT = "fit_report.json"
+
+
+def _fit_report(path: Path) -> dict | None:
+    file = path / FIT_REPORT
+    if not file.is_file():
+        return None
+    try:
+        report = json.loads(file.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise ValueError(f"{file}: not valid JSON ({err})") from err
+    if not isinstance(report, dict):
+        raise ValueError(f"{file}: expected a JSON object, got {type(report).__name__}")
+    # a local dataset path says nothing on the Hub and may reveal the user's folders
+    if "dataset" in report and Path(str(report["dataset"])).is_absolute():
+        report["dataset"] = Path(str(report["dataset"])).name
+    return report
+
+
+def _model_card(policy, report: dict | None):
+    """LeRobot's model card (as ``lerobot-train --policy.push_to_hub`` writes it) plus what the fit found."""
+    config = policy.config
+    dataset = report.get("dataset") if report else None
+    dataset_repo_id = dataset if isinstance(dataset, str) and dataset.count("/") == 1 else None
+    card = policy.generate_model_card(dataset_repo_id, config.type, config.license, config.tags)
+    lines = [
+        "",
+        "## Force-constrained elastic maps (lerobot_forcemap)",
+        "",
+        f"Closed-form skill: {config.n_segments} segment(s) fitted at {config.fps:g} fps "
+        f"(arm nodes {list(config.segment_n_nodes)}, gripper nodes {list(config.segment_n_gripper_nodes)}, "
+        f"task anchors {list(config.segment_anchors)}); tasks: {list(config.dataset_tasks)}.",
+    ]
+    if report:
+        lines.append(
+            f"Fitted from `{report.get('dataset')}`, episodes {report.get('episodes')}; "
+            f"the full fit report is `{FIT_REPORT}`."
+        )
+    card.text += "\n".join(lines) + "\n"
+    return card
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -22,6 +22,7 @@ def test_push_dataset_mocked(tmp_path):
         [write_recorder_file(tmp_path / "press_0.h5", make_streams(n=120))], root, fps=20, progress=False
     )
     assert "reaction on the robot" in card_kwargs(root)["dataset_description"]
+    (root / ".env").write_text("HF_TOKEN=hf_secret")  # a stray file beside the dataset stays local
 
     pushed_cards = []
 
@@ -34,7 +35,8 @@ def test_push_dataset_mocked(tmp_path):
             huggingface_hub.DatasetCard, "push_to_hub", autospec=True, side_effect=fake_card_push
         ),
     ):
-        url = push_dataset(root, "someone/press-demo", private=True, tags=["ur5e"])
+        with pytest.warns(UserWarning, match=r"not part of the dataset, not uploaded: \['\.env'\]"):
+            url = push_dataset(root, "someone/press-demo", private=True, tags=["ur5e"])
     api = api_cls.return_value
     assert url == "https://huggingface.co/datasets/someone/press-demo"
     api.create_repo.assert_called_once_with(
@@ -57,6 +59,16 @@ def test_push_dataset_mocked(tmp_path):
         "meta/episodes/chunk-000/file-000.parquet",
     } <= uploaded
     assert "images/" in up["ignore_patterns"]
+    from huggingface_hub.utils import filter_repo_objects
+
+    sent = set(
+        filter_repo_objects(
+            uploaded, allow_patterns=up["allow_patterns"], ignore_patterns=up["ignore_patterns"]
+        )
+    )
+    assert ".env" in uploaded and ".env" not in sent
+    assert "data/chunk-000/file-000.parquet" in sent and "meta/episodes/chunk-000/file-000.parquet" in sent
+    assert "README.md" in sent
 
     ((content, repo_id, kw),) = pushed_cards
     assert repo_id == "someone/press-demo" and kw["repo_type"] == "dataset"

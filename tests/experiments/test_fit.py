@@ -32,6 +32,17 @@ def test_cli_fit_writes_a_loadable_checkpoint(press_dataset, press_checkpoint, t
     with pytest.raises(ValueError, match="exists and is not empty"):
         main(["fit", "--dataset", str(press_dataset), "--out", str(out)])
 
+    # forcemap eval compares with the fitted dataset without being told (README: fit, eval, report)
+    capsys.readouterr()
+    doc_path = tmp_path / "eval.json"
+    assert (
+        main(["eval", "--policy", str(out), "--task", "press", "--episodes", "1", "--json", str(doc_path)])
+        == 0
+    )
+    assert "vs " in capsys.readouterr().out
+    doc = json.loads(doc_path.read_text())
+    assert "comparison" in doc and doc["demonstrations"]["fitted_episodes"] == [0]
+
 
 def test_cli_fit_settings_and_episodes(press_dataset, tmp_path):
     out = tmp_path / "multi"

@@ -30,6 +30,17 @@ def _edit_config(path, **changes):
     return data
 
 
+#: the normaliser's statistics, saved by LeRobot next to policy_preprocessor.json
+PRE_STATE = "policy_preprocessor_step_3_normalizer_processor.safetensors"
+
+
+def _drop_config_keys(path, *names):
+    data = json.loads((path / "config.json").read_text())
+    for name in names:
+        del data[name]
+    (path / "config.json").write_text(json.dumps(data))
+
+
 def test_loading_never_unpickles(ckpt):
     boom = mock.Mock(side_effect=AssertionError("unpickling during load"))
     with (
@@ -111,6 +122,26 @@ def test_non_finite_values(ckpt):
             lambda p: _edit_config(p, segment_overrides={"7": {"stiffness": 4000.0}}),
             r"config\.json: cannot read the policy config: .*segment_overrides: segment\(s\) \[7\] do not exist",
         ),
+        (
+            lambda p: _drop_config_keys(p, "lam"),
+            r"config\.json: field 'lam' is missing \(not a complete fitted forcemap checkpoint\)",
+        ),
+        (
+            lambda p: _drop_config_keys(p, "dataset_tasks"),
+            r"config\.json: field 'dataset_tasks' is missing",
+        ),
+        (
+            lambda p: _drop_config_keys(p, "output_features"),
+            r"config\.json: field 'output_features' is missing",
+        ),
+        (
+            lambda p: (p / PRE_STATE).write_bytes((p / PRE_STATE).read_bytes()[:100]),
+            rf"{PRE_STATE}: not a readable safetensors file",
+        ),
+        (
+            lambda p: (p / "policy_postprocessor.json").write_text("{oops"),
+            r"policy_postprocessor\.json: not valid JSON",
+        ),
         (lambda p: (p / "config.json").unlink(), r"config\.json: file not found"),
         (lambda p: (p / "model.safetensors").unlink(), r"model\.safetensors: file not found"),
     ],
@@ -147,6 +178,59 @@ def test_value_checks_name_the_field():
         check_skill_values(arrays, cfg, "src")
 
 
+def test_node_times_must_lie_in_their_segment():
+    cfg = mock.Mock(segment_n_nodes=[3], segment_n_gripper_nodes=[3])
+    arrays = {
+        "nodes": np.zeros((3, 3)),
+        "node_times": np.array([0.0, 0.5, 1.0]),
+        "orientations": np.tile([1.0, 0, 0, 0], (3, 1)),
+        "gripper_nodes": np.zeros((3, 1)),
+        "gripper_node_times": np.array([0.0, 0.5, 1.0]),
+        "durations": np.array([1.0]),
+        "anchor_poses": np.tile([0, 0, 0, 1.0, 0, 0, 0], (1, 1)),
+        "anchor_initial_poses": np.tile([0, 0, 0, 1.0, 0, 0, 0], (1, 1)),
+    }
+    check_skill_values(arrays, cfg, "src")  # consistent: passes
+    arrays["gripper_node_times"] = np.array([0.0, 0.5, 4.0])
+    with pytest.raises(
+        ValueError,
+        match=r"src: tensor 'gripper_node_times' in segment 0 spans \[0, 4\] s, outside .*\[0, 1\] s",
+    ):
+        check_skill_values(arrays, cfg, "src")
+
+
+def test_eval_loader_refuses_a_foreign_config_and_missing_processors(ckpt):
+    """forcemap eval's loader: a checkpoint without its processor pipelines is named (LeRobot's own
+    message calls it a checkpoint 'requiring migration')."""
+    from lerobot_forcemap.experiments.evaluate import load_policy
+
+    (ckpt / "policy_preprocessor.json").unlink()
+    with pytest.raises(ValueError, match=r"policy_preprocessor\.json: file not found"):
+        load_policy(ckpt)
+
+
+def test_eval_loader_refuses_an_act_config_beside_forcemap_tensors(ckpt):
+    """Not loaded with random weights (LeRobot's default strict=False only logs the key mismatch)."""
+    from lerobot.configs.types import FeatureType, PolicyFeature
+    from lerobot.policies.act.configuration_act import ACTConfig
+
+    from lerobot_forcemap.experiments.evaluate import load_policy
+
+    act = ACTConfig(
+        input_features={
+            "observation.state": PolicyFeature(FeatureType.STATE, (7,)),
+            "observation.environment_state": PolicyFeature(FeatureType.ENV, (8,)),
+        },
+        output_features={"action": PolicyFeature(FeatureType.ACTION, (8,))},
+        device="cpu",
+        push_to_hub=False,
+    )
+    (ckpt / "config.json").unlink()
+    act._save_pretrained(ckpt)
+    with pytest.raises(ValueError, match=r"model\.safetensors: its tensors do not fit the 'act' policy"):
+        load_policy(ckpt)
+
+
 def test_fit_settings_given_at_load_are_refused_runtime_ones_apply(press_checkpoint):
     """``lerobot-eval --policy.path=CKPT --policy.stiffness=...``: LeRobot applies the flag to the config, but
     the stored maps were fitted with another stiffness; loading them under it would report a setting that
@@ -180,3 +264,10 @@ def test_fit_settings_given_at_load_are_refused_runtime_ones_apply(press_checkpo
     if (SHIPPED_PRESS / "meta" / "info.json").is_file():
         with pytest.raises(ValueError, match=r"lam 0\.01 -> 0\.5"):
             make_policy(cfg, ds_meta=LeRobotDatasetMetadata("local/press", root=SHIPPED_PRESS))
+
+
+def test_a_missing_local_folder_is_named_as_such(tmp_path):
+    with pytest.raises(ValueError, match=r"nope/ckpt/x: no such checkpoint folder"):
+        ForceMapPolicy.from_pretrained(tmp_path / "nope" / "ckpt" / "x")
+    with pytest.raises(ValueError, match=r"\./ckpt: no such checkpoint folder"):
+        ForceMapPolicy.from_pretrained("./ckpt")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 from unittest import mock
@@ -45,6 +46,7 @@ def hub(tmp_path):
     fake = FakeHub(tmp_path / "remote")
     with (
         mock.patch("lerobot.utils.hub.HfApi", return_value=fake.api),
+        mock.patch("huggingface_hub.HfApi", return_value=fake.api),
         mock.patch("lerobot.policies.pretrained.HfApi", return_value=fake.api),
         mock.patch("lerobot.configs.policies.hf_hub_download", side_effect=fake.download),
         mock.patch("lerobot.policies.pretrained.hf_hub_download", side_effect=fake.download),
@@ -100,24 +102,49 @@ def test_missing_repo_is_a_clear_error(hub):
         ForceMapPolicy.from_pretrained("someone/does-not-exist")
 
 
-def test_forcemap_push_cli_sends_a_loadable_policy(press_checkpoint, hub, capsys):
-    """``forcemap push --policy``: config, weights and both processors in one model repo, loadable back."""
+def test_forcemap_push_cli_sends_a_loadable_policy(press_checkpoint, tmp_path, hub, capsys):
+    """``forcemap push --policy``: config, weights, both processors, the fit report and a card in one
+    commit to one model repo, loadable back."""
     from lerobot_forcemap.cli import main
 
-    assert main(["push", "--policy", str(press_checkpoint), "--repo-id", REPO, "--private"]) == 0
+    ckpt = tmp_path / "ckpt"
+    shutil.copytree(press_checkpoint, ckpt)
+    (ckpt / "fit_report.json").write_text(json.dumps({"dataset": "/home/me/data/press", "episodes": [0]}))
+    assert main(["push", "--policy", str(ckpt), "--repo-id", REPO, "--private"]) == 0
     assert f"https://huggingface.co/{REPO}" in capsys.readouterr().out
     hub.api.create_repo.assert_any_call(repo_id=REPO, private=True, exist_ok=True)
+    # one commit: the repo never holds a policy without its processors
+    assert hub.api.upload_folder.call_count == 1
     pushed = {p.name for p in (hub.root / REPO).iterdir()}
     assert {
         "config.json",
         "model.safetensors",
         "policy_preprocessor.json",
         "policy_postprocessor.json",
+        "README.md",
     } <= pushed
+    card = (hub.root / REPO / "README.md").read_text()
+    assert "Force-constrained elastic maps" in card and "segment(s)" in card
+    report = json.loads((hub.root / REPO / "fit_report.json").read_text())
+    assert report == {"dataset": "press", "episodes": [0]}  # no local folders on the Hub
+    assert "Fitted from `press`, episodes [0]" in card
     back = ForceMapPolicy.from_pretrained(REPO)
     local = ForceMapPolicy.from_pretrained(press_checkpoint)
     for name in SKILL_TENSORS:
         assert torch.equal(getattr(back, name), getattr(local, name)), name
+
+
+def test_a_broken_processor_file_fails_before_anything_is_uploaded(press_checkpoint, tmp_path, hub):
+    from lerobot_forcemap.experiments.push import push_policy
+
+    ckpt = tmp_path / "ckpt"
+    shutil.copytree(press_checkpoint, ckpt)
+    state = next(ckpt.glob("policy_preprocessor_step_*.safetensors"))
+    state.write_bytes(state.read_bytes()[:100])
+    with pytest.raises(ValueError, match=rf"{state.name}: not a readable safetensors file"):
+        push_policy(ckpt, REPO)
+    hub.api.create_repo.assert_not_called()
+    hub.api.upload_folder.assert_not_called()
 
 
 def test_forcemap_push_cli_rejects_bad_input(tmp_path, hub):
