@@ -230,6 +230,8 @@ def convert_episodes(
     if not float(fps).is_integer() or fps <= 0:
         raise ValueError(f"fps must be a positive integer (LeRobot stores an int), got {fps}")
     fps = int(fps)
+    if not (np.isfinite(gripper_full_scale) and gripper_full_scale > 0):  # a flag, not the data's fault
+        raise ValueError(f"--gripper-full-scale must be a positive number, got {gripper_full_scale}")
     check_output(out, overwrite=overwrite)
     work = partial_dir(out)
 
@@ -436,8 +438,12 @@ def convert_recordings(
     _refuse_output_holding_inputs(out, paths)
 
     def sources():
-        for p in paths:
-            yield EpisodeSource(read_recording(p), task or guess_task(p), str(p))
+        for index, p in enumerate(paths):
+            try:
+                rec = read_recording(p)
+            except ValueError as err:  # two files may share a recording name: name the episode and path
+                raise ValueError(f"episode {index} ({p}): {err}") from None
+            yield EpisodeSource(rec, task or guess_task(p), str(p))
 
     kwargs.setdefault("source_text", "lab recorder h5 files: " + ", ".join(p.name for p in paths))
     return convert_episodes(sources(), out, total=len(paths), **kwargs)

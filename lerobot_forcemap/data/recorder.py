@@ -18,6 +18,7 @@ robot base frame. Values are kept as recorded otherwise
 from __future__ import annotations
 
 import re
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -128,12 +129,24 @@ def _looks_like_gbti_object(item: h5py.Group | h5py.Dataset) -> bool:
     return isinstance(item, h5py.Group) and any(re.fullmatch(r"User\d+", k) for k in item)
 
 
+def _numbers(dataset: h5py.Dataset, path: str, rec: str) -> F64:
+    """The dataset as float64, or a ValueError naming it (strings, compound types, a group)."""
+    if not isinstance(dataset, h5py.Dataset):
+        raise ValueError(f"recording {rec!r}: {path!r} is not a dataset")
+    try:
+        return np.asarray(dataset[()], dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise ValueError(
+            f"recording {rec!r}: {path!r} holds {dataset.dtype} values, not numbers ({err})"
+        ) from None
+
+
 def _array(group: h5py.Group, name: str, rec: str, cols: int | None) -> F64:
     path = f"{group.name.rsplit('/', 1)[-1]}/{name}"
     if name not in group or not isinstance(group[name], h5py.Dataset):
         what = f"{path!r} is not a dataset" if name in group else f"missing dataset {path!r}"
         raise ValueError(f"recording {rec!r}: {what} (found {sorted(group.keys())})")
-    arr = np.asarray(group[name][()], dtype=np.float64)
+    arr = _numbers(group[name], path, rec)
     if cols is None:  # (n,) or (n, 1) -> (n,)
         if arr.ndim == 2 and arr.shape[1] == 1:
             arr = arr[:, 0]
@@ -152,11 +165,19 @@ def _array(group: h5py.Group, name: str, rec: str, cols: int | None) -> F64:
 
 def _times(group: h5py.Group, name: str, rec: str, n: int) -> F64:
     """``[sec, nsec]`` rows -> float64 seconds; also accepts plain (n,) seconds."""
-    raw = np.asarray(group[name][()], dtype=np.float64) if name in group else None
     path = f"{group.name.rsplit('/', 1)[-1]}/{name}"
+    raw = _numbers(group[name], path, rec) if name in group else None
     if raw is None:
         raise ValueError(f"recording {rec!r}: missing dataset {path!r} (found {sorted(group.keys())})")
     if raw.ndim == 2 and raw.shape[1] == 2:
+        nsec = raw[:, 1]
+        bad = np.isfinite(nsec) & ~((nsec >= 0) & (nsec < 1e9))  # non-finite: reported below
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ValueError(
+                f"recording {rec!r}: {path!r} column 1 (nanoseconds) must lie in [0, 1e9), got {nsec[i]:.6g} "
+                f"at sample {i}"
+            )
         t = raw[:, 0] + raw[:, 1] * 1e-9
     elif raw.ndim == 1 or (raw.ndim == 2 and raw.shape[1] == 1):
         t = raw.reshape(-1)
@@ -169,6 +190,29 @@ def _times(group: h5py.Group, name: str, rec: str, n: int) -> F64:
             f"recording {rec!r}: {path!r} is not finite (NaN/inf) at sample {int(np.argmax(~np.isfinite(t)))}"
         )
     return t
+
+
+#: every group and dataset of the lab-recorder format (../shared/data/README.md); joint efforts and
+#: velocities are known but not converted
+RECORDER_LAYOUT: dict[str, frozenset[str]] = {
+    "joint_state_info": frozenset({"joint_positions", "joint_time", "joint_effort", "joint_velocities"}),
+    "transform_info": frozenset({"transform_positions", "transform_orientations", "transform_time"}),
+    "wrench_info": frozenset({"wrench_force", "wrench_torque", "wrench_time"}),
+    "gripper_info": frozenset({"gripper_position", "gripper_vals", "gripper_time", "forces", "force_time"}),
+}
+
+
+def _warn_unknown_content(g: h5py.Group, name: str) -> None:
+    """Content outside :data:`RECORDER_LAYOUT` is not converted: say so rather than drop it silently."""
+    unknown = [key for key in g if key not in RECORDER_LAYOUT]
+    for group, known in RECORDER_LAYOUT.items():
+        if group in g and isinstance(g[group], h5py.Group):
+            unknown += [f"{group}/{key}" for key in g[group] if key not in known]
+    if unknown:
+        warnings.warn(
+            f"recording {name!r}: {sorted(unknown)} not part of the lab-recorder format; not converted",
+            stacklevel=3,
+        )
 
 
 def _read_group(g: h5py.Group, name: str) -> Recording:
@@ -217,7 +261,7 @@ def _read_group(g: h5py.Group, name: str) -> Recording:
             ff = _array(gi, "forces", name, None)
             ff_time = _times(gi, "force_time", name, len(ff))
 
-    return Recording(
+    recording = Recording(
         name=name,
         joint_time=_times(js, "joint_time", name, len(joints)),
         joint_positions=joints[:, RECORDER_TO_CHAIN_ORDER],
@@ -232,6 +276,8 @@ def _read_group(g: h5py.Group, name: str) -> Recording:
         finger_force_time=ff_time,
         finger_force=ff,
     )
+    _warn_unknown_content(g, name)  # after a successful read: a file of another layout fails with its reason
+    return recording
 
 
 def read_recording(path_or_group: str | Path | h5py.Group, name: str | None = None) -> Recording:

@@ -46,6 +46,8 @@ __all__ = [
     "LAB_WRENCH_SIGN",
     "GRIPPER_FULL_SCALE",
     "TARE_QUIET_STD_N",
+    "STREAM_RATE_RANGE_HZ",
+    "TRIM_NOTE_S",
     "TareMethod",
     "WrenchBias",
     "TimeCleaning",
@@ -70,6 +72,12 @@ GRIPPER_FULL_SCALE = 100.0
 TARE_DISAGREEMENT_WARN_N = 2.0
 # A rest window is "quiet" (free sensor, no hand) when its largest per-axis force std is below this.
 TARE_QUIET_STD_N = 0.5
+# Plausible sensor rates: a median step outside this range means timestamps in other units than seconds
+# (ms, ns, µs in the nsec column), which would otherwise resample to 1000x too many or too few frames.
+STREAM_RATE_RANGE_HZ = (1.0, 1e5)
+# Streams that start later or end earlier than the others trim the recording to their overlap; a trim
+# longer than this is reported.
+TRIM_NOTE_S = 0.1
 
 TareMethod = Literal["auto", "start", "end", "none"]
 DuplicatePolicy = Literal["merge", "raise"]
@@ -395,6 +403,8 @@ def align_recording(
         raise ValueError(f"fps must be a positive number, got {fps}")
     if n_samples is not None and int(n_samples) < 2:
         raise ValueError(f"n_samples must be >= 2, got {n_samples}")
+    if not (np.isfinite(gripper_full_scale) and gripper_full_scale > 0):
+        raise ValueError(f"gripper_full_scale must be a positive number, got {gripper_full_scale}")
     messages: list[str] = []
 
     def note(msg: str) -> None:
@@ -419,6 +429,14 @@ def align_recording(
                 f"(first at sample {info.first_duplicate_index}); collapsed to their mean"
             )
     rates = {s: float(1.0 / np.median(np.diff(t))) for s, (t, _) in cleaned.items()}
+    lo_hz, hi_hz = STREAM_RATE_RANGE_HZ
+    for stream, rate in rates.items():
+        if not lo_hz <= rate <= hi_hz:
+            raise ValueError(
+                f"recording {rec.name!r}: stream {stream!r} has a median sample step of "
+                f"{1.0 / rate:.3g} s ({rate:.3g} Hz), outside the plausible {lo_hz:g} Hz .. {hi_hz:g} Hz; "
+                "timestamps must be seconds (plain) or [sec, nsec] rows: are they ms, µs or ns?"
+            )
     for stream, (t, _) in cleaned.items():
         gap = describe_gaps(t)
         if gap:
@@ -432,6 +450,21 @@ def align_recording(
         )
     t0 = rec.start_time
     trimmed = (float(start - t0), float(max(t[-1] for t, _ in cleaned.values()) - stop))
+    if max(trimmed) > TRIM_NOTE_S:
+        late = [s for s, (t, _) in cleaned.items() if t[0] == start]
+        early = [s for s, (t, _) in cleaned.items() if t[-1] == stop]
+        dropped = [
+            f"{seconds:.3f} s at the {end} (stream(s) {names} {verb})"
+            for seconds, end, names, verb in (
+                (trimmed[0], "start", late, "start last"),
+                (trimmed[1], "end", early, "end first"),
+            )
+            if seconds > 0
+        ]
+        note(
+            f"the streams cover different time spans; kept their overlap {start - t0:.3f}..{stop - t0:.3f} s, "
+            f"dropping {' and '.join(dropped)}"
+        )
 
     # Relative frame times are computed directly (not as query - start): epoch seconds in float64
     # carry only ~2e-7 s resolution.

@@ -250,3 +250,46 @@ def test_bad_inputs_name_field_episode_and_frame(tmp_path):
     back = write_recorder_file(tmp_path / "back.h5", st)
     with pytest.raises(ValueError, match=r"stream 'back/joint': timestamp goes backwards at sample 50"):
         convert_recordings([back], tmp_path / "back", fps=20, progress=False)
+
+
+def test_recorder_content_problems_are_named(tmp_path):
+    import h5py
+
+    good = write_recorder_file(tmp_path / "rec.h5", make_streams(n=100))
+    (tmp_path / "text").mkdir()
+    # text where numbers belong: the dataset, not numpy's "could not convert string to float"
+    text = write_recorder_file(
+        tmp_path / "text" / "rec.h5", make_streams(n=100), skip=("wrench_info/wrench_force",)
+    )
+    with h5py.File(text, "a") as f:
+        f["wrench_info"].create_dataset("wrench_force", data=np.full((100, 3), b"a"))
+    with pytest.raises(
+        ValueError,
+        match=r"episode 1 \(.*text/rec\.h5\): recording 'rec': 'wrench_info/wrench_force' holds \|S1",
+    ):
+        convert_recordings([good, text], tmp_path / "out", fps=20, progress=False)
+    # a nanosecond column outside [0, 1e9): µs or a second count in the wrong column
+    with h5py.File(good, "a") as f:
+        t = f["wrench_info/wrench_time"][()]
+        t[5, 1] = 2e9
+        del f["wrench_info/wrench_time"]
+        f["wrench_info"].create_dataset("wrench_time", data=t)
+        f.create_group("camera_info").create_dataset("frames", data=np.zeros(3))
+        f["joint_state_info"].create_dataset("joint_accelerations", data=np.zeros(3))
+    with pytest.raises(
+        ValueError,
+        match=r"'wrench_info/wrench_time' column 1 \(nanoseconds\) must lie in \[0, 1e9\), got 2e\+09 at sample 5",
+    ):
+        read_recording(good)
+    # content the converter does not read is named, not dropped silently
+    with h5py.File(good, "a") as f:
+        t[5, 1] = 0.0
+        del f["wrench_info/wrench_time"]
+        f["wrench_info"].create_dataset("wrench_time", data=t)
+    with pytest.warns(
+        UserWarning,
+        match=r"\['camera_info', 'joint_state_info/joint_accelerations'\] not part of the lab-recorder format",
+    ):
+        read_recording(good)
+    with pytest.raises(ValueError, match="--gripper-full-scale must be a positive number, got nan"):
+        convert_recordings([good], tmp_path / "o2", fps=20, progress=False, gripper_full_scale=float("nan"))

@@ -224,3 +224,43 @@ def test_all_60_gbti_demos_align(shared_data):
             assert a.bias.window in ("start", "end") and len(a) > 300
             n += 1
     assert n == 60
+
+
+@pytest.mark.parametrize("scale, unit", [(1e3, "ms"), (1e9, "ns")])
+def test_timestamps_in_other_units_than_seconds_are_refused(synthetic, scale, unit):
+    """ms as plain seconds resampled to 1000x the frames (minutes, GBs); ns asked for TiBs."""
+    _, rec = synthetic
+    t = (rec.joint_time - rec.joint_time[0]) * scale
+    bad = dataclasses.replace(rec, joint_time=t, pose_time=t, wrench_time=t, gripper_time=t)
+    with pytest.raises(
+        ValueError, match=r"stream 'joint' has a median sample step of .* are they ms, µs or ns\?"
+    ):
+        align_recording(bad, fps=50)
+
+
+def test_streams_cut_to_their_overlap_are_reported(synthetic):
+    _, rec = synthetic
+    keep = rec.wrench_time < rec.wrench_time[0] + 1.5  # the wrench stops after 1.5 s of 4 s
+    short = dataclasses.replace(
+        rec,
+        wrench_time=rec.wrench_time[keep],
+        force_tool=rec.force_tool[keep],
+        torque_tool=rec.torque_tool[keep],
+    )
+    with pytest.warns(
+        UserWarning,
+        match=r"cover different time spans; kept their overlap 0.000..1.490 s, dropping 2.500 s at "
+        r"the end \(stream\(s\) \['wrench'\] end first\)",
+    ):
+        a = align_recording(short, fps=20)
+    assert a.trimmed_s == pytest.approx((0.0, 2.5))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        align_recording(rec, fps=20)  # same spans: nothing to say
+
+
+def test_gripper_full_scale_must_be_positive(synthetic):
+    _, rec = synthetic
+    for value in (float("nan"), 0.0, -1.0):
+        with pytest.raises(ValueError, match="gripper_full_scale must be a positive number"):
+            align_recording(rec, gripper_full_scale=value)
