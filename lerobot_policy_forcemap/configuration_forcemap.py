@@ -32,6 +32,7 @@ from lerobot.configs import NormalizationMode, PreTrainedConfig
 from lerobot.optim import SGDConfig
 
 from lerobot_forcemap import layout
+from lerobot_forcemap.segmentation.config import AUTHORS_WINDOW_S
 
 __all__ = [
     "ForceMapConfig",
@@ -82,8 +83,6 @@ DEFAULT_STREAM_THRESHOLDS = {
     "gripper": 0.10,
     "finger_force": 0.15,
 }
-#: the authors' segmentation window: 64 samples at the lab recorder's ~166 Hz
-AUTHORS_WINDOW_S = 64 / 166.0
 #: settings read only while acting (observation keys, re-anchoring, chunking, the task check): a loaded
 #: checkpoint may run with others (``lerobot-eval --policy.path=... --policy.reanchor_online=false``).
 #: Every other setting shapes the fitted maps, which the checkpoint stores: changing it needs a refit.

@@ -30,7 +30,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lerobot_forcemap.elmap import ElasticMapFit, fit_force_elastic_map
-from lerobot_forcemap.segmentation import SegmentationConfig, Stream, segment_streams
+from lerobot_forcemap.segmentation import (
+    AUTHORS_RATE_HZ,
+    AUTHORS_WINDOW_S,
+    SegmentationConfig,
+    Stream,
+    segment_streams,
+)
 
 from .anchoring import (
     IDENTITY_POSE,
@@ -40,7 +46,7 @@ from .anchoring import (
     object_slots,
     to_object_frame,
 )
-from .configuration_forcemap import AUTHORS_WINDOW_S, ForceMapConfig
+from .configuration_forcemap import ForceMapConfig
 from .episodes import EpisodeArrays
 from .skill import FittedSkill, SegmentMaps
 
@@ -59,7 +65,6 @@ __all__ = [
 ]
 
 Array = NDArray[np.float64]
-AUTHORS_RATE_HZ = 166.0
 AUTHORS_GRACE = 4
 
 

@@ -17,7 +17,10 @@ Write-back, in place (LeRobot 0.6.1 checked, ``datasets/language.py``, ``feature
   segment at time ``t``. Existing rows of other styles are kept; rows of our style are replaced.
 
 ``meta/info.json`` gains the three features, ``meta/stats.json`` and the episodes' stats gain
-``segment_index``. Episodes not segmented in this call keep their labels (or get one segment, 0,
+``segment_index``. ``subtasks=False`` (``--no-subtasks``) writes ``segment_index`` only and leaves any
+language columns as they are: LeRobot 0.6.1's ``lerobot-dataset-viz`` batches frames with PyTorch's
+default collate, which stops at the ``None`` fields every language row has (``camera``, ``tool_calls``;
+``lerobot-annotate``'s rows too), so it cannot open a dataset with subtasks (``forcemap viz`` can). Episodes not segmented in this call keep their labels (or get one segment, 0,
 when the column is new). The parquet shards are rewritten to a temporary file and renamed.
 """
 
@@ -25,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,7 +39,13 @@ from tqdm.auto import tqdm
 
 from lerobot_forcemap import layout
 from lerobot_forcemap.data.schema import SEGMENT_INDEX_FEATURE, refresh_dataset_card, require_dataset_root
-from lerobot_forcemap.segmentation import SegmentationConfig, SegmentationResult, Stream, segment_streams
+from lerobot_forcemap.segmentation import (
+    AUTHORS_WINDOW_S,
+    SegmentationConfig,
+    SegmentationResult,
+    Stream,
+    segment_streams,
+)
 
 __all__ = [
     "STREAM_THRESHOLDS",
@@ -152,11 +162,13 @@ def segment_dataset(
     config: SegmentationConfig | None = None,
     episodes: Sequence[int] | None = None,
     style: str = "motion",
+    subtasks: bool = True,
     repo_id: str = "local/forcemap",
     write: bool = True,
     progress: bool = True,
 ) -> list[EpisodeSegments]:
-    """Segment the episodes (all, or ``episodes``) of the dataset at ``root``; write them back if ``write``."""
+    """Segment the episodes (all, or ``episodes``) of the dataset at ``root``; write them back if ``write``
+    (``segment_index``, plus LeRobot subtasks of ``style`` if ``subtasks``)."""
     # checked first: LeRobotDataset would create a missing folder and then look for it on the Hub
     root = require_dataset_root(root, "--dataset")
     if style not in SUBTASK_STYLES:
@@ -167,6 +179,12 @@ def segment_dataset(
     if not keys:
         raise ValueError(
             f"{root}: no feature to segment on (need {layout.OBS_STATE}, {layout.OBS_FORCE}, ...)"
+        )
+    if not {layout.OBS_FORCE, layout.OBS_FINGER_FORCE} & set(features):
+        warnings.warn(
+            f"{root}: no force feature ({layout.OBS_FORCE} or {layout.OBS_FINGER_FORCE}); segmenting on "
+            f"{', '.join(sorted(stream_columns(features)))} only",
+            stacklevel=2,
         )
     table = ds.hf_dataset.with_format("numpy")
     ep_col = np.asarray(table["episode_index"])
@@ -190,7 +208,7 @@ def segment_dataset(
             EpisodeSegments(e, np.asarray(result.changepoints, dtype=np.int64), result.labels(), result)
         )
     if write:
-        write_segments(root, out, style=style, fps=ds.meta.fps)
+        write_segments(root, out, style=style, fps=ds.meta.fps, subtasks=subtasks)
     return out
 
 
@@ -204,8 +222,10 @@ def write_segments(
     *,
     style: str = "motion",
     fps: int | None = None,
+    subtasks: bool = True,
 ) -> None:
-    """Write per-frame labels (``{episode: labels (T,)}`` or :class:`EpisodeSegments`) into the dataset.
+    """Write per-frame labels (``{episode: labels (T,)}`` or :class:`EpisodeSegments`) into the dataset,
+    and, if ``subtasks``, one LeRobot subtask row of ``style`` per segment.
 
     Labels must be non-decreasing integers starting at 0 with steps of 1 (segment k follows k-1);
     otherwise ``ValueError`` names the episode and the frame.
@@ -243,6 +263,9 @@ def write_segments(
             seg_col = table.column(layout.SEGMENT_INDEX).to_numpy().astype(np.int64)
         else:
             seg_col = np.zeros(len(ep), dtype=np.int64)
+        if not subtasks:
+            seen.update(_write_labels_only(path, table, ep, frame, seg_col, labels_by_ep))
+            continue
         if LANGUAGE_PERSISTENT in table.column_names:
             persistent = table.column(LANGUAGE_PERSISTENT).to_pylist()
         else:
@@ -298,11 +321,36 @@ def write_segments(
     info.features = {
         **info.features,
         layout.SEGMENT_INDEX: dict(SEGMENT_INDEX_FEATURE),
-        **language_feature_info(),
+        **(language_feature_info() if subtasks else {}),
     }
     write_info(info, root)
     _write_segment_stats(root)
     refresh_dataset_card(root)  # the card's feature table gains segment_index and the language columns
+
+
+def _write_labels_only(path: Path, table, ep, frame, seg_col, labels_by_ep) -> set[int]:
+    """Rewrite one data shard with only its ``segment_index`` column changed; returns the episodes set."""
+    import pyarrow as pa
+    from lerobot.datasets.io_utils import write_table_one_row_group_per_episode
+
+    done = set()
+    for e in np.unique(ep):
+        e = int(e)
+        if e not in labels_by_ep:
+            continue
+        rows = np.flatnonzero(ep == e)
+        if len(labels_by_ep[e]) != len(rows):
+            raise ValueError(f"episode {e}: {len(labels_by_ep[e])} labels for {len(rows)} frames")
+        seg_col[rows] = labels_by_ep[e][frame[rows]]
+        done.add(e)
+    keep = [n for n in table.column_names if n != layout.SEGMENT_INDEX]
+    new_table = pa.Table.from_arrays(
+        [table.column(n) for n in keep] + [pa.array(seg_col)], names=[*keep, layout.SEGMENT_INDEX]
+    )
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    write_table_one_row_group_per_episode(new_table, tmp)
+    tmp.replace(path)
+    return done
 
 
 def _event_row_type():
@@ -399,9 +447,12 @@ def _parse_pairs(items: Sequence[str] | None, what: str) -> dict[str, float]:
         try:
             if not sep:
                 raise ValueError
-            out[name.strip()] = float(value)
+            number = float(value)
         except ValueError:
             raise ValueError(f"--{what} takes name=value pairs, got {item!r}") from None
+        if name.strip() in out:
+            raise ValueError(f"--{what}: {name.strip()!r} given twice")
+        out[name.strip()] = number
     return out
 
 
@@ -427,6 +478,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--episodes", type=int, nargs="+", help="only these episodes (default all)")
     parser.add_argument("--style", choices=list(SUBTASK_STYLES), default="motion", help="subtask row style")
+    parser.add_argument(
+        "--no-subtasks",
+        action="store_true",
+        help="write segment_index only, no LeRobot subtask rows (LeRobot 0.6.1's lerobot-dataset-viz "
+        "cannot batch language rows; forcemap viz shows both)",
+    )
     parser.add_argument("--dry-run", action="store_true", help="print the changepoints, write nothing")
 
 
@@ -447,11 +504,24 @@ def run(args: argparse.Namespace) -> int:
         config=config,
         episodes=args.episodes,
         style=args.style,
+        subtasks=not args.no_subtasks,
         repo_id=args.repo_id,
         write=not args.dry_run,
     )
     for s in segs:
         print(f"episode {s.episode_index}: {s.n_segments} segment(s), changepoints {s.changepoints.tolist()}")
+    single = [s for s in segs if s.n_segments == 1]
+    if single:
+        # --window/--min-run count frames: the authors' 64 are 0.39 s at their ~166 Hz recorder
+        fps = float(json.loads((Path(args.dataset) / "meta" / "info.json").read_text())["fps"])
+        scaled = max(5, int(round(AUTHORS_WINDOW_S * fps)))
+        print(
+            f"note: {len(single)} of {len(segs)} episode(s) found no changepoint. --window {args.window} and "
+            f"--min-run {args.min_run} count frames; the authors' 64 frames are {AUTHORS_WINDOW_S:.2f} s at "
+            f"their ~166 Hz, which at this dataset's {fps:g} fps is --window {scaled} --min-run {scaled} "
+            "(what the forcemap policy uses)"
+        )
     if not args.dry_run:
-        print(f"wrote {layout.SEGMENT_INDEX} and {args.style} subtasks to {args.dataset}")
+        what = f"{layout.SEGMENT_INDEX}" + ("" if args.no_subtasks else f" and {args.style} subtasks")
+        print(f"wrote {what} to {args.dataset}")
     return 0

@@ -13,12 +13,14 @@
 from .auto_weights import auto_weights, jerk_contrast, reweighted
 from .changepoints import enforce_min_segment_length, peak_changepoints, sample_changepoints
 from .combine import combine_pmfs, stream_pmf
-from .config import SegmentationConfig, Stream
+from .config import AUTHORS_RATE_HZ, AUTHORS_WINDOW_S, SegmentationConfig, Stream
 from .keypoints import StreamKeypoints, savgol_third_derivative, stream_keypoints, threshold_runs
 from .segment import SegmentationResult, StreamAnalysis, StreamResult, analyse_stream, segment_streams
 from .timebase import TimeRepair, TimeRepairWarning
 
 __all__ = [
+    "AUTHORS_RATE_HZ",
+    "AUTHORS_WINDOW_S",
     "SegmentationConfig",
     "SegmentationResult",
     "Stream",

@@ -114,6 +114,12 @@ class Stream:
         return int(self.values.shape[0])
 
 
+#: the authors' lab recorder rate (~166 Hz) and their window = min_run = 64 samples at it (0.385 s): the
+#: defaults below count samples of such a recording; at another rate the same time span is other counts
+AUTHORS_RATE_HZ = 166.0
+AUTHORS_WINDOW_S = 64 / AUTHORS_RATE_HZ
+
+
 @dataclass(frozen=True, eq=False)
 class SegmentationConfig:
     """Parameters of `segment_streams` (SPEC §2; defaults are the authors' UR5e values where they exist).

@@ -177,3 +177,77 @@ def test_cli(dataset, capsys):
     assert set(read_segment_index(ds)) == {0, 1}
     with pytest.raises(ValueError, match="name=value"):
         forcemap_main(["segment", "--dataset", str(dataset), "--weights", "joints"])
+    with pytest.raises(ValueError, match="--weights: 'joints' given twice"):
+        forcemap_main(["segment", "--dataset", str(dataset), "--weights", "joints=0", "joints=1"])
+
+
+def test_no_subtasks_writes_segment_index_only_and_default_collate_batches_it(dataset, capsys):
+    """lerobot-dataset-viz (0.6.1) batches frames with PyTorch's default collate, which stops at the None
+    fields of language rows; --no-subtasks leaves the language columns out."""
+    import torch
+    from lerobot.datasets.language import LANGUAGE_PERSISTENT
+
+    assert (
+        forcemap_main(
+            ["segment", "--dataset", str(dataset), "--window", "10", "--min-run", "5", "--no-subtasks"]
+        )
+        == 0
+    )
+    assert "wrote segment_index to" in capsys.readouterr().out
+    ds = load(dataset)
+    assert LANGUAGE_PERSISTENT not in ds.meta.features and layout.SEGMENT_INDEX in ds.meta.features
+    batch = next(iter(torch.utils.data.DataLoader(ds, batch_size=8)))
+    assert batch[layout.SEGMENT_INDEX].shape == (8,)
+    stored = read_segment_index(ds)
+    again = segment_dataset(
+        dataset, config=SegmentationConfig(window=10, min_run=5), write=False, progress=False
+    )
+    for s in again:
+        np.testing.assert_array_equal(stored[s.episode_index], s.changepoints)
+
+    # with subtasks (the default), the same loader fails inside LeRobot: why the option exists
+    segment_dataset(dataset, config=SegmentationConfig(window=10, min_run=5), progress=False)
+    with pytest.raises(TypeError, match="NoneType"):
+        next(iter(torch.utils.data.DataLoader(load(dataset), batch_size=8)))
+
+
+def test_no_changepoint_note_gives_the_window_in_frames_at_the_dataset_fps(dataset, capsys):
+    assert (
+        forcemap_main(
+            ["segment", "--dataset", str(dataset), "--dry-run", "--window", "149", "--min-run", "149"]
+        )
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "found no changepoint" in out and f"at this dataset's {FPS} fps is --window 19 --min-run 19" in out
+
+
+def test_a_dataset_without_force_is_segmented_with_a_warning(tmp_path):
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    from lerobot_forcemap.data.schema import dataset_features
+
+    feats = {
+        k: v
+        for k, v in dataset_features(layout.state_names(layout.UR5E_JOINT_NAMES)).items()
+        if k != layout.OBS_FORCE
+    }
+    ds = LeRobotDataset.create(
+        "local/noforce", fps=FPS, root=tmp_path / "ds", features=feats, use_videos=False
+    )
+    rng = np.random.default_rng(0)
+    for _ in range(60):
+        ds.add_frame(
+            {
+                k: rng.normal(size=v["shape"]).astype(np.float32)
+                for k, v in feats.items()
+                if v["dtype"] == "float32"
+            }
+            | {"task": "t"}
+        )
+    ds.save_episode()
+    ds.finalize()
+    with pytest.warns(
+        UserWarning, match=r"no force feature \(observation.force or observation.finger_force\)"
+    ):
+        segment_dataset(tmp_path / "ds", config=CONFIG, write=False, progress=False)
