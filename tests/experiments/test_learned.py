@@ -152,7 +152,9 @@ def test_derived_dataset_columns_names_and_stats(derived_press):
 
 def test_round_trip_replayed_demo_equals_derived_frames(derived_press):
     """Replaying demonstration 0 (its recorded seed and actions) through the env and the env processor
-    reproduces the derived dataset's environment_state frame by frame, bit for bit."""
+    reproduces the derived dataset's environment_state frame by frame, to float32 rounding: the shipped
+    dataset was recorded on another CPU, and MuJoCo's results can differ there in the last bit (3 of
+    1806 values differed by one float32 ulp, 4.5e-13 absolute, on an AMD EPYC)."""
     from lerobot.envs.configs import EnvConfig
     from lerobot.envs.utils import preprocess_observation
 
@@ -179,7 +181,7 @@ def test_round_trip_replayed_demo_equals_derived_frames(derived_press):
         env.close()
     got = np.asarray(got)
     assert got.shape == frames.shape == (len(actions), 21)
-    np.testing.assert_array_equal(got, frames)
+    np.testing.assert_allclose(got, frames, rtol=2e-6, atol=1e-9)
     assert np.abs(frames[:, -6:-3]).max() > 10.0  # the force part is live (press reaches tens of N)
 
 
