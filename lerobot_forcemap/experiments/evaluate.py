@@ -3,6 +3,7 @@ demonstrations' same figures.
 
     forcemap eval --policy outputs/press_policy --task press --episodes 20 --seed 1000 --json outputs/eval.json \
         [--dataset datasets/press] [--trace] [--video-dir outputs/videos --videos 1] [--env-state-extras ee_pose,force]
+    forcemap eval --policy outputs/grasp_policy --task grasp_push --object apple --episodes 10 --json ...
 
 The rollout is ``lerobot-eval``'s, one env at a time: ``preprocess_observation`` (raw env keys ->
 ``observation.*``), the checkpoint's saved pre-processor, ``policy.select_action``, the
@@ -238,6 +239,7 @@ def evaluate_policy(
     device: str = "cpu",
     progress: bool = True,
     env_state_extras: str | Sequence[str] | None = None,
+    object_name: str | None = None,
 ) -> list[dict[str, Any]]:
     """Records of ``episodes`` episodes (seeds seed .. seed+episodes-1); videos of the first ``n_videos``.
 
@@ -245,16 +247,27 @@ def evaluate_policy(
     ``observation.environment_state`` by the task's env processor, as ``lerobot-eval
     --env.env_state_extras=...`` does (for ACT / Diffusion trained on a derived dataset, see
     ``lerobot_env_forcemap/env_state.py``). A checkpoint whose environment_state size differs from
-    the env's (after the extras) raises ValueError."""
+    the env's (after the extras) raises ValueError. ``object_name``: the grasping tasks' object (e.g. an
+    unseen ``"apple"``; default: the demonstration object)."""
+    import inspect
+
     from tqdm.auto import tqdm
 
     from lerobot_forcemap.envs import make
+    from lerobot_forcemap.envs.registration import env_class
 
     if episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {episodes}")
+    env_kwargs: dict[str, Any] = {}
+    if object_name is not None:  # checked before the policy loads; gym.make would raise a bare TypeError
+        if "object" not in inspect.signature(env_class(task)).parameters:
+            raise ValueError(
+                f"--object: task {task!r} has no objects to choose from (for the grasping tasks)"
+            )
+        env_kwargs["object"] = object_name
     policy, pre, post = load_policy(policy_path, device)
     want_video = video_dir is not None and n_videos > 0
-    env = make(task, render_mode="rgb_array" if want_video else None)
+    env = make(task, render_mode="rgb_array" if want_video else None, **env_kwargs)
     try:
         env_pre = _env_preprocessor(task, env, policy, env_state_extras)
     except Exception:
@@ -464,10 +477,12 @@ def evaluation_document(
     dataset: str | Path | None,
     *,
     demo_trace: bool = False,
+    object_name: str | None = None,
 ) -> dict[str, Any]:
     """The eval JSON document (module docstring)."""
     doc: dict[str, Any] = {
         "task": task,
+        **({"object": object_name} if object_name is not None else {}),
         "policy": str(policy_path),
         "seed": int(seed),
         "episodes": records,
@@ -532,6 +547,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="demonstration dataset for the comparison (default: the dataset named in the checkpoint's "
         "train_config.json or fit_report.json, if it is still there)",
     )
+    parser.add_argument(
+        "--object",
+        default=None,
+        help="grasping tasks: the object, e.g. apple (default: the demonstration object)",
+    )
     parser.add_argument("--trace", action="store_true", help="store per-step force / pose / action traces")
     parser.add_argument(
         "--video-dir", default=None, help="write mp4 videos of the first --videos episodes here"
@@ -560,9 +580,12 @@ def run(args: argparse.Namespace) -> int:
         n_videos=args.videos,
         device=args.device,
         env_state_extras=getattr(args, "env_state_extras", None),
+        object_name=getattr(args, "object", None),
     )
     dataset = args.dataset or _default_dataset(Path(args.policy))
-    doc = evaluation_document(args.policy, args.task, args.seed, records, dataset, demo_trace=args.trace)
+    doc = evaluation_document(
+        args.policy, args.task, args.seed, records, dataset, demo_trace=args.trace, object_name=args.object
+    )
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(doc, indent=1))
     s = doc["summary"]

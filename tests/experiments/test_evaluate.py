@@ -156,3 +156,47 @@ def test_a_checkpoint_config_that_does_not_read_is_named(press_checkpoint, tmp_p
     if not __import__("torch").cuda.is_available():
         with pytest.raises(ValueError, match="--device cuda: no CUDA device"):
             load_policy(press_checkpoint, device="cuda")
+
+
+def test_cli_eval_on_an_unseen_object(tmp_path, capsys):
+    """``--object apple``: the grasping task with an unseen object, recorded in the document; refused by
+    name (before any loading) on a task without objects."""
+    from tests.conftest import REPO_ROOT
+
+    dataset = REPO_ROOT / "datasets" / "grasp_push"
+    if not (dataset / "meta" / "info.json").is_file():
+        pytest.skip("datasets/grasp_push not shipped")
+    ckpt = tmp_path / "grasp"
+    settings = ["anchor_radius=0.15", "static_tolerance=0.02", "anchor_by_moved_object=true"]
+    assert (
+        main(
+            [
+                "fit",
+                "--dataset",
+                str(dataset),
+                "--out",
+                str(ckpt),
+                *[a for s in settings for a in ("--set", s)],
+            ]
+        )
+        == 0
+    )
+    out = tmp_path / "apple.json"
+    args = ["eval", "--policy", str(ckpt), "--task", "grasp_push", "--object", "apple", "--episodes", "1"]
+    assert main([*args, "--seed", "1000", "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["object"] == "apple" and doc["episodes"][0]["success"]
+    with pytest.raises(ValueError, match="--object: task 'press' has no objects"):
+        main(
+            [
+                "eval",
+                "--policy",
+                str(tmp_path / "missing"),
+                "--task",
+                "press",
+                "--object",
+                "apple",
+                "--json",
+                str(out),
+            ]
+        )
