@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from lerobot_forcemap.jsonfile import read_json_object
+
 from .configuration_forcemap import ForceMapConfig
 
 __all__ = [
@@ -142,8 +144,6 @@ def check_processor_files(folder: str | Path, *, required: bool) -> None:
     ``required``: whether the pipelines must be there (``lerobot-eval``/``forcemap eval``/``push`` load
     them; ``ForceMapPolicy.from_pretrained`` alone does not).
     """
-    import json
-
     from safetensors import SafetensorError, safe_open
 
     folder = Path(folder)
@@ -156,13 +156,9 @@ def check_processor_files(folder: str | Path, *, required: bool) -> None:
                     f"{' and '.join(PROCESSOR_FILES)} next to config.json)"
                 )
             continue
-        try:
-            pipeline = json.loads(path.read_text())
-        except (json.JSONDecodeError, UnicodeDecodeError) as err:
-            raise ValueError(f"{path}: not valid JSON ({err})") from err
-        steps = pipeline.get("steps") if isinstance(pipeline, dict) else None
+        steps = read_json_object(path).get("steps")
         if not isinstance(steps, list):
-            raise ValueError(f"{path}: expected a JSON object with a 'steps' list")
+            raise ValueError(f"{path}: expected a 'steps' list, got {type(steps).__name__}")
         for i, step in enumerate(steps):
             state_file = step.get("state_file") if isinstance(step, dict) else None
             if state_file is None:

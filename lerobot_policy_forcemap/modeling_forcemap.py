@@ -22,7 +22,6 @@ that moved differently) are followed.
 
 from __future__ import annotations
 
-import json
 import logging
 from collections.abc import Sequence
 from pathlib import Path
@@ -32,6 +31,8 @@ import numpy as np
 import torch
 from lerobot.policies.pretrained import PreTrainedPolicy
 from torch import Tensor, nn
+
+from lerobot_forcemap.jsonfile import read_json_object
 
 from .anchoring import object_poses, object_slots, place_skill, provisional_segments, reanchor_segment
 from .checkpoint import (
@@ -443,12 +444,7 @@ def _check_config_json(path: Path) -> None:
     """Readable JSON object with a string 'type' (LeRobot's own reader reports neither file nor field)."""
     if not path.is_file():
         raise ValueError(f"{path}: file not found (a checkpoint folder needs config.json)")
-    try:
-        data = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as err:
-        raise ValueError(f"{path}: not valid JSON ({err})") from err
-    if not isinstance(data, dict):
-        raise ValueError(f"{path}: expected a JSON object, got {type(data).__name__}")
+    data = read_json_object(path)
     if data.get("type") != "forcemap":
         raise ValueError(f"{path}: field 'type' is {data.get('type')!r}, expected 'forcemap'")
     # Every setting the maps were fitted with must be stored: a missing one would be filled with today's

@@ -11,13 +11,13 @@ description that :func:`lerobot_forcemap.data.schema.write_dataset_card` stored 
 from __future__ import annotations
 
 import fnmatch
-import json
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from lerobot_forcemap.data.schema import require_dataset_root
+from lerobot_forcemap.jsonfile import read_json_object
 
 __all__ = ["CARD_FILE", "DATASET_UPLOAD_PATTERNS", "card_kwargs", "check_repo_id", "push_dataset"]
 
@@ -40,12 +40,7 @@ def card_kwargs(root: str | Path) -> dict[str, Any]:
     path = Path(root) / CARD_FILE
     if not path.is_file():
         return {}
-    try:
-        card = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as err:
-        raise ValueError(f"{path}: not valid JSON ({err})") from err
-    if not isinstance(card, dict):
-        raise ValueError(f"{path}: expected a JSON object, got {type(card).__name__}")
+    card = read_json_object(path)
     return {k: card[k] for k in ("tags", "license", "dataset_description") if card.get(k) is not None}
 
 

@@ -20,6 +20,7 @@ import json
 from pathlib import Path
 
 from ..data.hub import check_repo_id, push_dataset
+from ..jsonfile import read_json_object
 
 __all__ = ["POLICY_UPLOAD_PATTERNS", "push_policy", "add_arguments", "run"]
 
@@ -79,12 +80,7 @@ def _fit_report(path: Path) -> dict | None:
     file = path / FIT_REPORT
     if not file.is_file():
         return None
-    try:
-        report = json.loads(file.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as err:
-        raise ValueError(f"{file}: not valid JSON ({err})") from err
-    if not isinstance(report, dict):
-        raise ValueError(f"{file}: expected a JSON object, got {type(report).__name__}")
+    report = read_json_object(file)
     # a local dataset path says nothing on the Hub and may reveal the user's folders
     if "dataset" in report and Path(str(report["dataset"])).is_absolute():
         report["dataset"] = Path(str(report["dataset"])).name
