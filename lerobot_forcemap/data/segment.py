@@ -20,8 +20,9 @@ Write-back, in place (LeRobot 0.6.1 checked, ``datasets/language.py``, ``feature
 ``segment_index``. ``subtasks=False`` (``--no-subtasks``) writes ``segment_index`` only and leaves any
 language columns as they are: LeRobot 0.6.1's ``lerobot-dataset-viz`` batches frames with PyTorch's
 default collate, which stops at the ``None`` fields every language row has (``camera``, ``tool_calls``;
-``lerobot-annotate``'s rows too), so it cannot open a dataset with subtasks (``forcemap viz`` can). Episodes not segmented in this call keep their labels (or get one segment, 0,
-when the column is new). The parquet shards are rewritten to a temporary file and renamed.
+``lerobot-annotate``'s rows too), so it cannot open a dataset with subtasks (``forcemap viz`` can).
+Episodes not segmented in this call keep their labels (or get one segment, 0, when the column is new).
+The parquet shards are rewritten to a temporary file and renamed.
 """
 
 from __future__ import annotations
@@ -263,9 +264,6 @@ def write_segments(
             seg_col = table.column(layout.SEGMENT_INDEX).to_numpy().astype(np.int64)
         else:
             seg_col = np.zeros(len(ep), dtype=np.int64)
-        if not subtasks:
-            seen.update(_write_labels_only(path, table, ep, frame, seg_col, labels_by_ep))
-            continue
         if LANGUAGE_PERSISTENT in table.column_names:
             persistent = table.column(LANGUAGE_PERSISTENT).to_pylist()
         else:
@@ -280,6 +278,9 @@ def write_segments(
             if len(lab) != len(rows):
                 raise ValueError(f"episode {e}: {len(lab)} labels for {len(rows)} frames")
             seg_col[rows] = lab[frame[rows]]
+            seen.add(e)
+            if not subtasks:
+                continue
             starts = np.flatnonzero(np.concatenate([[True], np.diff(lab) != 0]))
             n_seg = len(starts)
             kept = [r for r in (persistent[rows[0]] or []) if r.get("style") != style]
@@ -295,22 +296,21 @@ def write_segments(
                 for k, start in enumerate(starts)
             ]
             episode_rows[e] = sorted(kept + ours, key=lambda r: (float(r["timestamp"]), r.get("style") or ""))
-            seen.add(e)
-        new_persistent = [episode_rows.get(int(e), persistent[i] or []) for i, e in enumerate(ep)]
-        events = (
-            table.column(LANGUAGE_EVENTS)
-            if LANGUAGE_EVENTS in table.column_names
-            else pa.array([[] for _ in range(len(ep))], type=pa.list_(_event_row_type()))
-        )
-        keep = [
-            n
-            for n in table.column_names
-            if n not in (layout.SEGMENT_INDEX, LANGUAGE_PERSISTENT, LANGUAGE_EVENTS)
-        ]
-        new_table = pa.Table.from_arrays(
-            [table.column(n) for n in keep] + [pa.array(seg_col), _persistent_array(new_persistent), events],
-            names=[*keep, layout.SEGMENT_INDEX, LANGUAGE_PERSISTENT, LANGUAGE_EVENTS],
-        )
+        # without subtasks the language columns stay as they are (or absent)
+        language = [n for n in (LANGUAGE_PERSISTENT, LANGUAGE_EVENTS) if subtasks or n in table.column_names]
+        keep = [n for n in table.column_names if n not in (layout.SEGMENT_INDEX, *language)]
+        columns = [table.column(n) for n in keep] + [pa.array(seg_col)]
+        if subtasks:
+            new_persistent = [episode_rows.get(int(e), persistent[i] or []) for i, e in enumerate(ep)]
+            events = (
+                table.column(LANGUAGE_EVENTS)
+                if LANGUAGE_EVENTS in table.column_names
+                else pa.array([[] for _ in range(len(ep))], type=pa.list_(_event_row_type()))
+            )
+            columns += [_persistent_array(new_persistent), events]
+        else:
+            columns += [table.column(n) for n in language]
+        new_table = pa.Table.from_arrays(columns, names=[*keep, layout.SEGMENT_INDEX, *language])
         tmp = path.with_suffix(path.suffix + ".tmp")
         write_table_one_row_group_per_episode(new_table, tmp)
         tmp.replace(path)
@@ -326,31 +326,6 @@ def write_segments(
     write_info(info, root)
     _write_segment_stats(root)
     refresh_dataset_card(root)  # the card's feature table gains segment_index and the language columns
-
-
-def _write_labels_only(path: Path, table, ep, frame, seg_col, labels_by_ep) -> set[int]:
-    """Rewrite one data shard with only its ``segment_index`` column changed; returns the episodes set."""
-    import pyarrow as pa
-    from lerobot.datasets.io_utils import write_table_one_row_group_per_episode
-
-    done = set()
-    for e in np.unique(ep):
-        e = int(e)
-        if e not in labels_by_ep:
-            continue
-        rows = np.flatnonzero(ep == e)
-        if len(labels_by_ep[e]) != len(rows):
-            raise ValueError(f"episode {e}: {len(labels_by_ep[e])} labels for {len(rows)} frames")
-        seg_col[rows] = labels_by_ep[e][frame[rows]]
-        done.add(e)
-    keep = [n for n in table.column_names if n != layout.SEGMENT_INDEX]
-    new_table = pa.Table.from_arrays(
-        [table.column(n) for n in keep] + [pa.array(seg_col)], names=[*keep, layout.SEGMENT_INDEX]
-    )
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    write_table_one_row_group_per_episode(new_table, tmp)
-    tmp.replace(path)
-    return done
 
 
 def _event_row_type():

@@ -209,6 +209,15 @@ def test_no_subtasks_writes_segment_index_only_and_default_collate_batches_it(da
     segment_dataset(dataset, config=SegmentationConfig(window=10, min_run=5), progress=False)
     with pytest.raises(TypeError, match="NoneType"):
         next(iter(torch.utils.data.DataLoader(load(dataset), batch_size=8)))
+    rows_before = read_subtasks(load(dataset), 0)
+    # --no-subtasks on a dataset that has them: segment_index rewritten, the language rows left as they are
+    coarse = segment_dataset(
+        dataset, config=SegmentationConfig(window=40, min_run=40), subtasks=False, progress=False
+    )
+    ds = load(dataset)
+    assert LANGUAGE_PERSISTENT in ds.meta.features and read_subtasks(ds, 0) == rows_before
+    for s in coarse:
+        np.testing.assert_array_equal(read_segment_index(ds)[s.episode_index], s.changepoints)
 
 
 def test_no_changepoint_note_gives_the_window_in_frames_at_the_dataset_fps(dataset, capsys):
