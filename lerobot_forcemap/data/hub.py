@@ -67,12 +67,8 @@ def push_dataset(
     kwargs["tags"] = sorted({*kwargs.get("tags", ()), *(tags or ())}) or None
     license_id = kwargs.pop("license", "apache-2.0")
     dataset = LeRobotDataset(repo_id, root=root)
-    left_out = sorted(
-        p.relative_to(root).as_posix()
-        for p in root.rglob("*")
-        if p.is_file()
-        and not any(fnmatch.fnmatch(p.relative_to(root).as_posix(), g) for g in DATASET_UPLOAD_PATTERNS)
-    )
+    files = (p.relative_to(root).as_posix() for p in root.rglob("*") if p.is_file())
+    left_out = sorted(f for f in files if not any(fnmatch.fnmatch(f, g) for g in DATASET_UPLOAD_PATTERNS))
     if left_out:
         warnings.warn(f"{root}: not part of the dataset, not uploaded: {left_out}", stacklevel=2)
     dataset.push_to_hub(

@@ -17,7 +17,6 @@ the numbers a reproduction is compared with.
 from __future__ import annotations
 
 import argparse
-import inspect
 import json
 import shutil
 import warnings
@@ -46,7 +45,7 @@ from ..layout import (
     OBS_IMAGES_PREFIX,
     OBS_STATE,
 )
-from .registration import env_class, make, task_entry
+from .registration import make, object_kwargs, task_entry
 from .scene import CAMERA
 
 EPISODES_FILE = "forcemap_episodes.json"
@@ -114,11 +113,7 @@ def record_demonstrations(
     # an existing dataset at `out` as it was, and no half-written one.
     out = check_output(out, overwrite=overwrite)
     entry = task_entry(task)
-    if object_name is not None and "object" not in inspect.signature(env_class(task)).parameters:
-        raise ValueError(
-            f"object: task {task!r} has no objects to choose from (object= is for the grasping tasks)"
-        )
-    env_kwargs = {} if object_name is None else {"object": object_name}
+    env_kwargs = object_kwargs(task, object_name)
     env = make(
         task,
         obs_type="pixels_state" if images else "state",

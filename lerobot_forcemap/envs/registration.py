@@ -69,6 +69,21 @@ def env_class(task: str) -> type[gym.Env]:
     return getattr(importlib.import_module(module), name)
 
 
+def object_kwargs(task: str, object_name: str | None, what: str = "object") -> dict[str, str]:
+    """``{"object": object_name}`` for a task whose env takes an object (the grasping tasks), ``{}`` for
+    ``None``; ``ValueError`` naming ``what`` for a task without objects (``gym.make`` would raise a bare
+    ``TypeError``)."""
+    if object_name is None:
+        return {}
+    import inspect
+
+    if "object" not in inspect.signature(env_class(task)).parameters:
+        raise ValueError(
+            f"{what}: task {task!r} has no objects to choose from (object= is for the grasping tasks)"
+        )
+    return {"object": object_name}
+
+
 def make(task: str, **kwargs) -> gym.Env:
     """``gym.make`` by task name (``"press"``, ``"erase"``, ``"peg_in_hole"``, ...)."""
     register_all()

@@ -32,6 +32,8 @@ from typing import Any
 
 import numpy as np
 
+from lerobot_forcemap.jsonfile import read_json_object
+
 __all__ = [
     "FORCE_KEYS",
     "TRACE_COLUMNS",
@@ -249,22 +251,14 @@ def evaluate_policy(
     ``lerobot_env_forcemap/env_state.py``). A checkpoint whose environment_state size differs from
     the env's (after the extras) raises ValueError. ``object_name``: the grasping tasks' object (e.g. an
     unseen ``"apple"``; default: the demonstration object)."""
-    import inspect
-
     from tqdm.auto import tqdm
 
     from lerobot_forcemap.envs import make
-    from lerobot_forcemap.envs.registration import env_class
+    from lerobot_forcemap.envs.registration import object_kwargs
 
     if episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {episodes}")
-    env_kwargs: dict[str, Any] = {}
-    if object_name is not None:  # checked before the policy loads; gym.make would raise a bare TypeError
-        if "object" not in inspect.signature(env_class(task)).parameters:
-            raise ValueError(
-                f"--object: task {task!r} has no objects to choose from (for the grasping tasks)"
-            )
-        env_kwargs["object"] = object_name
+    env_kwargs = object_kwargs(task, object_name, "--object")  # checked before the policy loads
     policy, pre, post = load_policy(policy_path, device)
     want_video = video_dir is not None and n_videos > 0
     env = make(task, render_mode="rgb_array" if want_video else None, **env_kwargs)
@@ -525,8 +519,8 @@ def _default_dataset(policy_path: Path) -> Path | None:
         if not path.is_file():
             continue
         try:
-            value: Any = json.loads(path.read_text())
-        except (OSError, json.JSONDecodeError, UnicodeDecodeError):
+            value: Any = read_json_object(path)
+        except (OSError, ValueError):  # a best-effort default: an unreadable file names no dataset
             continue
         for key in field:
             value = value.get(key) if isinstance(value, dict) else None
