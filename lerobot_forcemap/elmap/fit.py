@@ -74,6 +74,10 @@ DEFAULT_F_CONTACT = 2.0
 DEFAULT_STIFFNESS = 15000.0
 #: largest |coordinate| (and δ) accepted: squared distances of 1e150 stay finite in float64
 MAX_COORDINATE = 1e150
+#: smallest non-zero extent of the data accepted: squared distances of 1e-200 stay normal floats
+MIN_EXTENT = 1e-100
+#: accepted range of demo weights: the M-step squares the cluster weights, which must stay normal floats
+WEIGHT_RANGE = (1e-100, 1e100)
 
 
 @dataclass(frozen=True)
@@ -550,6 +554,12 @@ def fit_force_elastic_map(
         return arrs
 
     force_list = matching(forces, "forces", dim) if forces is not None else None
+    for k, a in enumerate(force_list or ()):
+        if np.any(big := np.abs(a) > MAX_COORDINATE):
+            t, q = np.argwhere(big)[0]
+            raise ValueError(
+                f"forces[{k}]: {a[t, q]:.3g} at frame {t}, axis {q} is above {MAX_COORDINATE:g} (choose other units)"
+            )
     if weights is not None:
         wl = _as_demo_list(weights, "weights")
         wl = [np.repeat(a, dim, axis=1) if a.shape[1] == 1 and dim > 1 else a for a in wl]
@@ -558,6 +568,12 @@ def fit_force_elastic_map(
             if np.any(a <= 0):
                 t, q = np.argwhere(a <= 0)[0]
                 raise ValueError(f"weights[{k}]: weights must be > 0, got {a[t, q]} at frame {t}, axis {q}")
+            if np.any(out := (a < WEIGHT_RANGE[0]) | (a > WEIGHT_RANGE[1])):
+                t, q = np.argwhere(out)[0]
+                raise ValueError(
+                    f"weights[{k}]: {a[t, q]:.3g} at frame {t}, axis {q} is outside [{WEIGHT_RANGE[0]:g}, "
+                    f"{WEIGHT_RANGE[1]:g}] (squared cluster weights would leave float64's range; rescale them)"
+                )
     else:
         weight_list = [np.ones((n, dim)) for n in lengths]
     if times is not None:
@@ -595,7 +611,13 @@ def fit_force_elastic_map(
     )
     S = len(x) * float(np.sqrt(dim)) if weights is None else float(np.sum(row_norms(w)))
     # (d, M) copy: reductions along contiguous rows are many times faster than along axis 0 of (M, d)
-    scale = max(float(np.max(np.ptp(np.ascontiguousarray(x.T), axis=1))), 1e-12)
+    extent = float(np.max(np.ptp(np.ascontiguousarray(x.T), axis=1)))
+    if 0.0 < extent < MIN_EXTENT:
+        raise ValueError(
+            f"positions: the data spans only {extent:.3g} (below {MIN_EXTENT:g} squared distances underflow "
+            "float64; choose other units)"
+        )
+    scale = max(extent, 1e-12)
 
     # ---- initial map and constraints
     first = demos[0]
@@ -603,9 +625,13 @@ def fit_force_elastic_map(
     y = arc_length_resample(first, n_nodes, arc)
     arc = arc / arc[-1]
 
+    # the first demo's arc fraction at each distinct normalised time (first sample of a repeated time)
+    via_times, first_at = np.unique(norm_times[0], return_index=True)
+    via_arc = arc[first_at]
+
     def time_fraction_to_node(frac: float) -> int:
-        j = min(int(np.searchsorted(norm_times[0], frac, side="left")), len(first) - 1)
-        return int(round(arc[j] * (n_nodes - 1)))
+        # interpolated between samples: a sparse demo must not snap the via point to its next sample
+        return int(round(float(np.interp(frac, via_times, via_arc)) * (n_nodes - 1)))
 
     rc: ResolvedConstraints = resolve_constraints(constraints, n_nodes, dim, time_fraction_to_node)
     if len(rc.fixed_index):
@@ -676,8 +702,13 @@ def fit_force_elastic_map(
             y_new = solve_m_step_clarabel(W, b, S, lam, mu, rc, extra)
         else:
             y_new = banded.solve(W, b, S, previous=y)
-        if not np.all(np.isfinite(y_new)):  # defensive: the input checks should make this unreachable
-            raise FloatingPointError(f"M-step {it}: non-finite nodes (the data's scale overflows float64?)")
+        if not np.all(np.isfinite(y_new)):  # the input checks bound each input, not every combination
+            raise ValueError(
+                f"positions/forces/weights: M-step {it} overflowed float64 (non-finite nodes); the inputs' "
+                f"scales combine badly: |forces| up to {np.max(np.abs(f)) if f is not None else 0:.3g}, "
+                f"weights in [{np.min(w):.3g}, {np.max(w):.3g}], stiffness {stiffness:g}, delta {delta:g} "
+                "(choose other units, or keep rho_max set)"
+            )
         energy = energy_terms(y_new, W, b, S, lam, mu)
         history.append(energy.total)
         moved = float(np.max(np.abs(y_new - y)))

@@ -20,6 +20,8 @@ MODES: tuple[str, ...] = ("product", "geometric", "linear")
 CHANGEPOINT_METHODS: tuple[str, ...] = ("sample", "peaks")
 DERIVATIVES: tuple[str, ...] = ("savgol", "difference")
 DUPLICATE_TIMES: tuple[str, ...] = ("merge", "raise")
+#: largest stream weight accepted (weight × log-pmf must stay finite in the geometric combination)
+MAX_STREAM_WEIGHT = 1e100
 
 
 def _first_bad_index(mask: np.ndarray) -> tuple[int, ...]:
@@ -94,6 +96,12 @@ class Stream:
         weight = _real(self.weight)
         if not np.isfinite(weight) or weight < 0:
             raise ValueError(f"stream {self.name!r}: weight must be finite and >= 0, got {self.weight!r}")
+        if weight > MAX_STREAM_WEIGHT:
+            # the geometric combination multiplies log-pmfs (down to about -745) by the weights
+            raise ValueError(
+                f"stream {self.name!r}: weight {weight:g} is above {MAX_STREAM_WEIGHT:g}; weights are relative "
+                "importances (in the geometric mode their common scale acts as a temperature)"
+            )
         threshold = _real(self.threshold)
         if not (0.0 < threshold <= 1.0):
             raise ValueError(

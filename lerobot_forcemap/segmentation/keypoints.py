@@ -200,8 +200,20 @@ def stream_keypoints(
 ) -> StreamKeypoints:
     """Keypoints of one stream, x (n, k) at strictly increasing times t (n,), as sample indices (see module doc)."""
     x = x - x[0]  # exact zeros for a constant stream; better conditioned differences
-    jerk = jerk_norm(x, t, derivative, window, polyorder)
-    signal = normalised_signal(jerk, window, roundoff_jerk(x, t, derivative, window, polyorder))
+    try:
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            jerk = jerk_norm(x, t, derivative, window, polyorder)
+            flat_below = roundoff_jerk(x, t, derivative, window, polyorder)
+    except OverflowError:  # dt**3 of a Python float
+        jerk, flat_below = None, float("inf")
+    if jerk is None or not np.isfinite(flat_below) or not np.isfinite(jerk).all():
+        # an infinite jerk would make the stream look flat (or everywhere active) without saying so
+        raise ValueError(
+            f"values changing by up to {float(np.abs(x).max()):.3g} over time steps of "
+            f"{float(np.min(np.diff(t))):.3g}..{float(np.max(np.diff(t))):.3g} s: the third derivative leaves "
+            "float64's range (choose other units)"
+        )
+    signal = normalised_signal(jerk, window, flat_below)
     flat = not signal.any()
     starts = threshold_runs(signal, threshold, min_run, grace)
     keypoints = np.minimum(starts + window // 2, x.shape[0] - 1)

@@ -113,16 +113,19 @@ def analyse_stream(stream: Stream, config: SegmentationConfig) -> StreamAnalysis
             f"stream {stream.name!r}: {x.shape[0]} samples{extra}, but window={config.window} with"
             f" derivative={config.derivative!r} needs at least {needed}"
         )
-    found = stream_keypoints(
-        x,
-        t,
-        threshold=stream.threshold,
-        window=config.window,
-        min_run=config.min_run,
-        grace=config.grace,
-        derivative=config.derivative,
-        polyorder=config.polyorder,
-    )
+    try:
+        found = stream_keypoints(
+            x,
+            t,
+            threshold=stream.threshold,
+            window=config.window,
+            min_run=config.min_run,
+            grace=config.grace,
+            derivative=config.derivative,
+            polyorder=config.polyorder,
+        )
+    except ValueError as err:
+        raise ValueError(f"stream {stream.name!r}: {err}") from None
     keypoints = found.keypoints if repair is None else repair.kept_frames[found.keypoints]
     return StreamAnalysis(keypoints=keypoints, signal=found.signal, flat=found.flat, time_repair=repair)
 

@@ -188,6 +188,26 @@ def test_time_fraction_via_maps_to_the_node_at_that_arc_length():
     np.testing.assert_allclose(fit.nodes[15], [0.2, 0.05, 0.0], atol=1e-12)
 
 
+@pytest.mark.parametrize(
+    ("n_samples", "frac", "node"), [(2, 0.3, 3), (2, 0.5, 5), (11, 0.35, 35), (11, 0.01, 1)]
+)
+def test_time_fraction_via_interpolates_between_sparse_samples(n_samples, frac, node):
+    # a sparse demo: the fraction lies between samples and must not snap to the next one
+    x = np.linspace(0.0, 1.0, n_samples)[:, None] * [1.0, 2.0]
+    n_nodes = 11 if n_samples == 2 else 101
+    fit = fit_force_elastic_map(
+        x, n_nodes=n_nodes, constraints=Constraints(via=[(frac, [9.0, 9.0])]), max_iter=1
+    )
+    assert np.flatnonzero(np.all(fit.nodes == 9.0, axis=1)).tolist() == [node]
+
+
+def test_time_fraction_via_with_an_end_constraint_on_a_two_sample_demo():
+    x = np.array([[0.0, 0.0], [1.0, 2.0]])
+    cons = Constraints(end=[1.0, 2.0], via=[(0.5, [0.5, 1.0])])
+    fit = fit_force_elastic_map(x, n_nodes=5, constraints=cons)
+    np.testing.assert_allclose(fit.nodes[[2, 4]], [[0.5, 1.0], [1.0, 2.0]], atol=1e-9)
+
+
 def test_inequality_constraints_hold_through_the_fit():
     x = s_curve(n=500, seed=4)
     cons = Constraints(box=([-1, -0.03, -1], [1, 0.03, 1]), halfspaces=[([0, 0, 1.0], 0.015)], max_step=0.012)
@@ -362,8 +382,22 @@ def test_time_law_and_orientation():
         (dict(positions=np.zeros((5, 0))), "positions: need at least 1 coordinate"),
         (dict(positions=line_demo(n=20) * 1e160), r"positions\[0\]: \|coordinate\| up to .* overflow"),
         (dict(delta=1e200), "delta: 1e\\+200 is above"),
+        (dict(positions=line_demo(n=20) * 1e-160), "positions: the data spans only .* underflow"),
+        (dict(weights=np.full(20, 1e300)), r"weights\[0\]: 1e\+300 at frame 0, axis 0 is outside"),
+        (dict(weights=np.full(20, 1e-300)), r"weights\[0\]: 1e-300 at frame 0, axis 0 is outside"),
+        (
+            dict(forces=np.full((20, 3), 1e200), rho_max=None),
+            r"forces\[0\]: 1e\+200 at frame 0, axis 0 is above",
+        ),
+        (
+            dict(forces=np.full((20, 3), 1e140), rho_max=None, weights=np.full(20, 1e-100)),
+            "positions/forces/weights: M-step 1 overflowed float64",
+        ),
     ],
 )
+@pytest.mark.filterwarnings(
+    "ignore:overflow encountered:RuntimeWarning"
+)  # the overflow case, before its error
 def test_bad_input_names_the_argument(kwargs, field):
     args = dict(positions=line_demo(n=20))
     args.update(kwargs)

@@ -188,3 +188,29 @@ def test_stream_keeps_caller_arrays_writable() -> None:
     assert not stream.values.flags.writeable  # the stream's own view is read-only
     with pytest.raises(ValueError):
         stream.values[0, 0] = 1.0
+
+
+@pytest.mark.parametrize("derivative", ["savgol", "difference"])
+@pytest.mark.parametrize(("value_scale", "time_scale"), [(1e200, 1.0), (1.0, 1e110), (1.0, 1e-110)])
+def test_a_third_derivative_outside_float64_names_the_stream(derivative, value_scale, time_scale) -> None:
+    # an infinite jerk used to be thresholded as a flat stream: no keypoints, no word
+    values, times = event_stream()
+    config = SegmentationConfig(derivative=derivative, window=32, min_run=32)
+    with pytest.raises(
+        ValueError, match="stream 'joints': values changing by up to .* leaves float64's range"
+    ):
+        segment_streams([Stream("joints", values * value_scale, times * time_scale)], config)
+
+
+def test_large_values_within_range_keep_their_keypoints() -> None:
+    values, times = event_stream()
+    config = SegmentationConfig(window=32, min_run=32)
+    plain = segment_streams([Stream("joints", values, times)], config)
+    scaled = segment_streams([Stream("joints", values * 1e100, times)], config)
+    np.testing.assert_array_equal(scaled.keypoints["joints"], plain.keypoints["joints"])
+
+
+def test_a_stream_weight_above_the_limit_is_refused() -> None:
+    values, times = event_stream()
+    with pytest.raises(ValueError, match="stream 'joints': weight 1e\\+308 is above 1e\\+100"):
+        Stream("joints", values, times, weight=1e308)
