@@ -113,6 +113,12 @@ class ForcemapEnvConfig(EnvConfig):
     def __post_init__(self):
         if self.obs_type not in ("state", "pixels_state"):
             raise ValueError(f"obs_type must be 'state' or 'pixels_state', got {self.obs_type!r}")
+        rate = task_entry(self.forcemap_task).control_hz
+        if self.fps != rate:  # LeRobot writes eval videos at fps; the simulation always steps at its rate
+            raise ValueError(
+                f"fps: the {self.forcemap_task} task runs at its control rate, {rate:g} Hz, which is not "
+                f"configurable; got fps={self.fps!r}"
+            )
         if not self.features:
             self.features, self.features_map = task_features(
                 self.forcemap_task, obs_type=self.obs_type, image_size=self.image_size, robot=self.robot

@@ -84,6 +84,14 @@ class ForceTaskEnv(gym.Env):
         for name, size in (("image_size", image_size), ("render_size", render_size)):
             if int(size) != size or size < 1:
                 raise ValueError(f"{name} must be a positive number of pixels, got {size!r}")
+        numeric = isinstance(force_cutoff_hz, (int, float, np.number)) and not isinstance(
+            force_cutoff_hz, bool
+        )
+        if not (numeric and 0 < force_cutoff_hz < float("inf")):
+            # NaN would pass a `<= 0` test, then turn the force observations and the protective stop off
+            raise ValueError(
+                f"force_cutoff_hz must be a positive finite frequency (Hz), got {force_cutoff_hz!r}"
+            )
         self.obs_type = obs_type
         self.render_mode = render_mode
         self.image_size = int(image_size)
@@ -288,8 +296,8 @@ class ForceTaskEnv(gym.Env):
                 stacklevel=2,
             )
             self._warned_ended = True
-        a = np.asarray(action, dtype=float).reshape(-1)
-        if a.shape != (ACTION_DIM,):
+        a = np.asarray(action, dtype=float)
+        if a.shape != (ACTION_DIM,):  # a (1, 8) batch row or a (2, 4) array is not an action either
             raise ValueError(
                 f"action must have shape ({ACTION_DIM},) = [x y z qw qx qy qz gripper], got {np.shape(action)}"
             )

@@ -90,7 +90,7 @@ class LowPass:
     """
 
     def __init__(self, cutoff_hz: float, dt: float, dim: int):
-        if cutoff_hz <= 0 or dt <= 0:
+        if not (cutoff_hz > 0 and dt > 0):  # NaN fails this too
             raise ValueError(f"cutoff_hz and dt must be positive, got {cutoff_hz}, {dt}")
         self.alpha = 1.0 - float(np.exp(-2.0 * np.pi * cutoff_hz * dt))
         self._b = np.array([self.alpha])

@@ -1,4 +1,5 @@
 import importlib
+import re
 
 import gymnasium as gym
 import numpy as np
@@ -59,6 +60,9 @@ def test_bad_actions_and_options_raise():
     with pytest.raises(ValueError, match="shape"):
         env.step(np.zeros(7))
     a = np.concatenate([obs["ee_pose"], [1.0]])
+    for shape in [(2, 4), (8, 1), (1, 8)]:  # eight numbers, but not an action: not flattened silently
+        with pytest.raises(ValueError, match=rf"action must have shape \(8,\).*got {re.escape(str(shape))}"):
+            env.step(a.reshape(shape))
     a[2] = np.nan
     with pytest.raises(ValueError, match=r"non-finite values at indices \[2\]"):
         env.step(a)
@@ -68,6 +72,10 @@ def test_bad_actions_and_options_raise():
     for size in (0, -5, 2.5):
         with pytest.raises(ValueError, match="image_size must be a positive number of pixels"):
             E.make("press", obs_type="pixels_state", image_size=size)
+    for cutoff in (float("nan"), 0.0, -1.0, float("inf"), True, "10"):
+        # NaN used to pass: NaN forces, no protective stop, max_contact_force 0
+        with pytest.raises(ValueError, match="force_cutoff_hz must be a positive finite frequency"):
+            E.make("press", force_cutoff_hz=cutoff)
 
 
 def test_clipping_is_reported_not_silent():

@@ -167,3 +167,34 @@ def test_pressing_the_book_into_the_table_triggers_the_wrist_force_stop():
     assert obs["force"][2] > 0.9 * limit
     np.testing.assert_allclose(obs["force"][:3], info["contact_force"], atol=0.05 * limit)
     env.close()
+
+
+@pytest.mark.parametrize("name", sorted(GRASP_OBJECTS))
+def test_declared_half_extents_bound_the_object_geometry(name):
+    # the env observes them (obj_hx, obj_hy, obj_hz) and the demonstrator plans its grasp from them
+    obj = GRASP_OBJECTS[name]
+    model = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><body name='o'>"
+        + "".join(
+            f"<geom type='capsule' size='{p.size[0]}' fromto='{' '.join(map(str, p.a + p.b))}'/>"
+            if p.kind == "capsule"
+            else f"<geom type='{p.kind}' size='{' '.join(map(str, p.size))}' pos='{' '.join(map(str, p.pos))}'/>"
+            for p in obj.primitives
+        )
+        + "</body></worldbody></mujoco>"
+    )
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    # support of each geom along ±x, ±y, ±z, from MuJoCo's own placement of it (capsule fromto included)
+    reach = np.zeros(3)
+    for g in range(model.ngeom):
+        centre, rot, size = data.geom_xpos[g], data.geom_xmat[g].reshape(3, 3), model.geom_size[g]
+        kind = model.geom_type[g]
+        if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+            half = size[1] * np.abs(rot[:, 2]) + size[0]
+        elif kind == mujoco.mjtGeom.mjGEOM_BOX:
+            half = np.abs(rot) @ size
+        else:  # ellipsoid: |diag(size) Rᵀ e| along each axis e
+            half = np.linalg.norm(rot * size, axis=1)
+        reach = np.maximum(reach, np.abs(centre) + half)
+    np.testing.assert_allclose(obj.half_extents, reach, atol=1e-9)

@@ -31,6 +31,14 @@ def test_policy_features_include_force():
     assert env_to_policy_features(pix)["observation.images.front"].shape == (3, 64, 64)
 
 
+@pytest.mark.parametrize("env_type", ["forcemap_press", "forcemap_grasp_flip"])
+def test_an_fps_other_than_the_control_rate_is_refused(env_type):
+    # --env.fps used to be accepted and ignored: the simulation steps at 20 Hz whatever it says
+    with pytest.raises(ValueError, match=r"fps: the \w+ task runs at its control rate, 20 Hz.*got fps=10"):
+        make_env_config(env_type, fps=10)
+    assert make_env_config(env_type, fps=20).fps == 20
+
+
 def test_make_env_and_preprocess_observation_deliver_force():
     cfg = make_env_config("forcemap_press")
     envs = make_env(cfg, n_envs=2)

@@ -86,6 +86,19 @@ def _banana(
     )
 
 
+def bounding_half_extents(primitives: tuple[Primitive, ...]) -> tuple[float, float, float]:
+    """Half extents (3,) of the smallest box centred on the object frame origin that holds ``primitives``
+    (boxes and ellipsoids axis-aligned at their ``pos``, capsules as their segment ends ± radius)."""
+    reach = np.zeros(3)
+    for p in primitives:
+        if p.kind == "capsule":
+            ends = np.abs(np.array([p.a, p.b])) + p.size[0]
+        else:
+            ends = np.abs(np.array([p.pos])) + np.array(p.size)
+        reach = np.maximum(reach, ends.max(axis=0))
+    return tuple(float(v) for v in reach)
+
+
 GRASP_OBJECTS: dict[str, GraspObject] = {
     "book": GraspObject(
         "book", (Primitive("box", (0.09, 0.06, 0.025)),), 0.25, (0.09, 0.06, 0.025), (0.2, 0.35, 0.7, 1.0),
@@ -100,8 +113,8 @@ GRASP_OBJECTS: dict[str, GraspObject] = {
         (0.8, 0.1, 0.1, 1.0), False, "unseen: a sphere-like apple (7.4 cm, 160 g)", rolling_friction=0.002,
     ),
     "banana": GraspObject(
-        "banana", _banana(), 0.12, (0.037, 0.097, 0.018), (0.95, 0.85, 0.2, 1.0), False,
-        "unseen: an elongated, curved banana (18 cm long, 3.6 cm thick, 120 g) lying along y",
+        "banana", _banana(), 0.12, bounding_half_extents(_banana()), (0.95, 0.85, 0.2, 1.0), False,
+        "unseen: an elongated, curved banana (20 cm long, 3.6 cm thick, 120 g) lying along y",
     ),
 }  # fmt: skip
 
