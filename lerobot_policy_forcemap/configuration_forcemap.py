@@ -95,6 +95,7 @@ RUNTIME_FIELDS = (
     "reanchor_blend_s",
     "chunk_size",
     "check_task",
+    "control_fps",
 )
 _NON_NEGATIVE = ("lam", "mu", "delta", "f_contact", "time_scale")
 _UNITS = {
@@ -291,6 +292,10 @@ class ForceMapConfig(PreTrainedConfig):
     #: refuse an env whose task string is not one the demonstrations were recorded for (its
     #: environment_state would be another scene's objects); off for e.g. a real demonstration in sim
     check_task: bool = True
+    #: the rate (Hz) at which select_action is called, i.e. the env's control rate; None: the dataset's
+    #: fps (the env the demonstrations were recorded in). A real 50 fps demonstration replayed in the
+    #: 20 Hz sim needs 20, else its timing is stretched 2.5 times
+    control_fps: float | None = None
 
     # ---- LeRobot plumbing
     normalization_mapping: dict[str, NormalizationMode] = field(
@@ -360,6 +365,11 @@ class ForceMapConfig(PreTrainedConfig):
         for name in ("anchor_radius", "static_tolerance"):
             need(getattr(self, name) > 0, name, "must be > 0")
         need(int(self.chunk_size) >= 1, "chunk_size", "must be >= 1")
+        need(
+            self.control_fps is None or (0 < float(self.control_fps) < float("inf")),
+            "control_fps",
+            "must be None (the dataset's fps) or a positive rate in Hz",
+        )
         need(self.max_iter >= 1, "max_iter", "must be >= 1")
         allowed = set(ELMAP_PARAMS) | set(GRIPPER_PARAMS)
         for seg, params in self.segment_overrides.items():

@@ -12,8 +12,9 @@ builds the buffers from the config's fitted sizes and checks the file before rea
 Acting: ``reset`` forgets the episode; the first ``select_action`` after it places the skill in the
 scene of its observation (robot pose ``observation.ee_pose``, object poses from
 ``observation.environment_state``; ``anchoring.py``), one placement per batch element. Each call
-returns the ``[x y z qw qx qy qz gripper]`` target at t = k / fps (k-th call, fps of the dataset,
-which is the env's control rate) and advances k; after the last segment the final pose is held.
+returns the ``[x y z qw qx qy qz gripper]`` target at t = k / fps (k-th call; fps of the dataset, which
+is the env's control rate, or ``control_fps`` for an env stepping at another rate) and advances k; after
+the last segment the final pose is held.
 With ``reanchor_online`` the first call at or after the start of an object-anchored segment
 re-anchors that segment to the object's position in that call's observation
 (``anchoring.reanchor_segment``): objects that moved since reset (pushed, flipped, an unseen object
@@ -23,6 +24,7 @@ that moved differently) are followed.
 from __future__ import annotations
 
 import logging
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -230,6 +232,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         self._observed_as: dict[str, np.ndarray] = {}
         self._provisional: list[bool] = []
         self.reanchor_log: list[dict[str, Any]] = []  # (segment, batch row, shift) of each re-anchoring
+        self._warned_clock = getattr(self, "_warned_clock", False)  # once per policy, not per episode
 
     def place(self, batch: dict[str, Tensor]) -> list[Reproduction]:
         """The skill placed in each batch element's scene (robot pose + object poses of the observation)."""
@@ -282,11 +285,23 @@ class ForceMapPolicy(PreTrainedPolicy):
         fills it from the env's task_description)."""
         cfg = self.config
         asked = batch.get("task")
-        if not (cfg.check_task and cfg.dataset_tasks) or asked is None:
+        if not cfg.dataset_tasks or asked is None:
             return
         unknown = sorted(
             {str(t) for t in ([asked] if isinstance(asked, str) else asked)} - set(cfg.dataset_tasks)
         )
+        if unknown and not cfg.check_task:
+            if cfg.control_fps is None and not self._warned_clock:
+                # another env than the demonstrations': its control rate is unknown to the policy
+                warnings.warn(
+                    f"check_task=false: the env asks for task(s) {unknown}, not the demonstrations'; the skill "
+                    f"advances 1/{cfg.fps:g} s per select_action call (the dataset's fps). If this env steps at "
+                    "another rate, set control_fps to it (lerobot-eval --policy.control_fps=20 for the forcemap "
+                    "sim tasks), else the demonstration's timing is stretched",
+                    stacklevel=3,
+                )
+                self._warned_clock = True
+            return
         if unknown:
             raise ValueError(
                 f"the env asks for task(s) {unknown}, but this policy was fitted on demonstrations of "
@@ -303,8 +318,13 @@ class ForceMapPolicy(PreTrainedPolicy):
             raise ValueError(
                 f"batch size changed from {len(self._placed)} to {n} within an episode; call reset() between episodes"
             )
-        self._reanchor_started(batch, self._step / self.config.fps)
+        self._reanchor_started(batch, self._step / self.clock_hz)
         return self._placed
+
+    @property
+    def clock_hz(self) -> float:
+        """Calls of ``select_action`` per second of the skill: ``control_fps``, else the dataset's fps."""
+        return float(self.config.control_fps or self.config.fps)
 
     def _reanchor_started(self, batch: dict[str, Tensor], t: float) -> None:
         """Re-anchor every object-anchored segment that has started by time ``t`` and was not checked
@@ -359,14 +379,14 @@ class ForceMapPolicy(PreTrainedPolicy):
     def predict_action_chunk(self, batch: dict[str, Tensor], **kwargs: Any) -> Tensor:
         """The next ``chunk_size`` targets ``(B, chunk_size, 8)`` from the current time (does not advance it)."""
         placed = self._ensure_placed(batch)
-        times = (self._step + np.arange(self.config.chunk_size)) / self.config.fps
+        times = (self._step + np.arange(self.config.chunk_size)) / self.clock_hz
         return self._actions(placed, times, _any_tensor(batch))
 
     @torch.no_grad()
     def select_action(self, batch: dict[str, Tensor], **kwargs: Any) -> Tensor:
-        """The target ``(B, 8)`` at t = k / fps for the k-th call since ``reset``."""
+        """The target ``(B, 8)`` at t = k / clock_hz for the k-th call since ``reset``."""
         placed = self._ensure_placed(batch)
-        action = self._actions(placed, np.array([self._step / self.config.fps]), _any_tensor(batch))[:, 0]
+        action = self._actions(placed, np.array([self._step / self.clock_hz]), _any_tensor(batch))[:, 0]
         self._step += 1
         return action
 

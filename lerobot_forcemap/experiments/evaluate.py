@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -260,6 +261,7 @@ def evaluate_policy(
         raise ValueError(f"--episodes must be >= 1, got {episodes}")
     env_kwargs = object_kwargs(task, object_name, "--object")  # checked before the policy loads
     policy, pre, post = load_policy(policy_path, device)
+    _match_control_rate(policy, task)
     want_video = video_dir is not None and n_videos > 0
     env = make(task, render_mode="rgb_array" if want_video else None, **env_kwargs)
     try:
@@ -281,6 +283,23 @@ def evaluate_policy(
     finally:
         env.close()
     return records
+
+
+def _match_control_rate(policy, task: str) -> None:
+    """A forcemap skill fitted at another rate than the task's control rate (a real 50 fps demonstration
+    in the 20 Hz sim) advances by the env's control period per step: ``control_fps`` is set, with a note."""
+    from lerobot_forcemap.envs.registration import task_entry
+
+    cfg = policy.config
+    rate = task_entry(task).control_hz
+    if getattr(cfg, "type", None) != "forcemap" or cfg.control_fps is not None or abs(cfg.fps - rate) < 1e-9:
+        return
+    cfg.control_fps = rate
+    print(
+        f"note: the policy was fitted at {cfg.fps:g} fps and {task} steps at {rate:g} Hz: control_fps={rate:g} "
+        f"(lerobot-eval: --policy.control_fps={rate:g})",
+        file=sys.stderr,
+    )
 
 
 def _env_preprocessor(task: str, env, policy, env_state_extras):
@@ -513,7 +532,10 @@ def _fitted_episodes(policy_path: str | Path) -> list[int]:
 
 def _default_dataset(policy_path: Path) -> Path | None:
     """The demonstrations a checkpoint was fitted on, if still there: lerobot-train's ``train_config.json``
-    (``dataset.root``), else ``forcemap fit``'s ``fit_report.json`` (``dataset``)."""
+    (``dataset.root``), else ``forcemap fit``'s ``fit_report.json`` (``dataset``). A relative path (as
+    typed when training) is looked for from the current folder, then from the checkpoint's parent
+    folders (run from elsewhere); a dataset named but not found is said on stderr."""
+    named = []
     for name, field in (("train_config.json", ("dataset", "root")), ("fit_report.json", ("dataset",))):
         path = policy_path / name
         if not path.is_file():
@@ -524,8 +546,21 @@ def _default_dataset(policy_path: Path) -> Path | None:
             continue
         for key in field:
             value = value.get(key) if isinstance(value, dict) else None
-        if isinstance(value, str) and value and Path(value).is_dir():
-            return Path(value)
+        if not (isinstance(value, str) and value):
+            continue
+        candidates = [Path(value)]
+        if not Path(value).is_absolute():
+            candidates += [parent / value for parent in policy_path.resolve().parents]
+        for candidate in candidates:
+            if (candidate / "meta" / "info.json").is_file():
+                return candidate
+        named.append(f"{value!r} ({name})")
+    if named:
+        print(
+            f"note: the fitted dataset {' / '.join(named)} was not found from here; no comparison with the "
+            "demonstrations (pass --dataset)",
+            file=sys.stderr,
+        )
     return None
 
 

@@ -200,3 +200,36 @@ def test_cli_eval_on_an_unseen_object(tmp_path, capsys):
                 str(out),
             ]
         )
+
+
+def test_a_relative_fitted_dataset_is_found_from_elsewhere_or_named(tmp_path, monkeypatch, capsys):
+    from lerobot_forcemap.experiments.evaluate import _default_dataset
+
+    repo = tmp_path / "repo"
+    (repo / "datasets" / "press" / "meta").mkdir(parents=True)
+    (repo / "datasets" / "press" / "meta" / "info.json").write_text("{}")
+    ckpt = repo / "outputs" / "train" / "checkpoints" / "last" / "pretrained_model"
+    ckpt.mkdir(parents=True)
+    # lerobot-train stores dataset.root as typed: relative to where training ran (the repo)
+    (ckpt / "train_config.json").write_text(json.dumps({"dataset": {"root": "datasets/press"}}))
+    monkeypatch.chdir(tmp_path)  # not the repo: the path is found from the checkpoint's parents
+    assert _default_dataset(ckpt) == repo / "datasets" / "press"
+    (ckpt / "train_config.json").write_text(json.dumps({"dataset": {"root": "datasets/gone"}}))
+    capsys.readouterr()
+    assert _default_dataset(ckpt) is None
+    assert (
+        "note: the fitted dataset 'datasets/gone' (train_config.json) was not found"
+        in capsys.readouterr().err
+    )
+
+
+def test_eval_clocks_a_skill_of_another_rate_at_the_envs_rate(press_checkpoint, capsys):
+    from lerobot_forcemap.experiments.evaluate import _match_control_rate, load_policy
+
+    policy, _, _ = load_policy(press_checkpoint)
+    _match_control_rate(policy, "press")  # fitted in the 20 Hz sim: nothing to do
+    assert policy.config.control_fps is None and capsys.readouterr().err == ""
+    policy.config.fps = 50.0  # as a real 50 fps demonstration's checkpoint
+    _match_control_rate(policy, "press")
+    assert policy.config.control_fps == 20.0 and policy.clock_hz == 20.0
+    assert "fitted at 50 fps and press steps at 20 Hz: control_fps=20" in capsys.readouterr().err

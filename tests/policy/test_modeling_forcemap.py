@@ -136,9 +136,32 @@ def test_an_env_of_another_task_is_refused(policy):
     policy.config.check_task = False
     try:
         policy.reset()
-        policy.select_action({**obs, "task": ["Wipe the blue S off the whiteboard with the eraser."]})
+        with pytest.warns(UserWarning, match=r"check_task=false: .* set control_fps"):
+            policy.select_action({**obs, "task": ["Wipe the blue S off the whiteboard with the eraser."]})
     finally:
         policy.config.check_task = True
+
+
+def test_control_fps_sets_the_rate_at_which_the_skill_advances(press_checkpoint):
+    """A skill fitted at 20 fps, called at 40 Hz: the 2k-th call is where the k-th call at 20 Hz was
+    (a real 50 fps demonstration in the 20 Hz sim is the same case, the other way round)."""
+    obs = _scene()
+    plain = ForceMapPolicy.from_pretrained(press_checkpoint)
+    fast = ForceMapPolicy.from_pretrained(press_checkpoint)
+    fast.config.control_fps = 40.0
+    assert plain.clock_hz == 20.0 and fast.clock_hz == 40.0
+    plain.reset(), fast.reset()
+    a = torch.stack([plain.select_action(obs) for _ in range(30)])
+    b = torch.stack([fast.select_action(obs) for _ in range(60)])
+    torch.testing.assert_close(b[::2], a, rtol=0, atol=1e-6)
+    assert not torch.allclose(b[:30], a, atol=1e-4)  # the first 30 calls cover only half the time
+    fast.reset()
+    np.testing.assert_allclose(
+        fast.predict_action_chunk(obs)[0, 1].numpy(), b[1, 0].numpy(), atol=1e-6
+    )  # chunks follow the same clock
+    with pytest.raises(ValueError, match="control_fps: must be None .* or a positive rate"):
+        ForceMapConfig(control_fps=0.0)
+    assert "control_fps" in type(plain.config).__dataclass_fields__
 
 
 def test_a_checkpoint_is_not_refitted_on_another_tasks_dataset(press_checkpoint, press_dataset):
