@@ -26,7 +26,7 @@ default 15000 N/m (``lerobot_forcemap.elmap.DEFAULT_STIFFNESS``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import MISSING, dataclass, field, fields
 
 from lerobot.configs import NormalizationMode, PreTrainedConfig
 from lerobot.optim import SGDConfig
@@ -477,6 +477,19 @@ class ForceMapConfig(PreTrainedConfig):
             "env_state_names",
             "dataset_tasks",
         )
+
+    def check_unfitted(self) -> None:
+        """Before a fit: the fitted fields must be at their defaults. The fit overwrites them, so a value
+        given for one (``lerobot-train --policy.fps=50``) would otherwise be dropped without a word."""
+        for f in fields(self):
+            if f.name not in self.fitted_field_names():
+                continue
+            default = f.default_factory() if f.default_factory is not MISSING else f.default
+            if getattr(self, f.name) != default:
+                raise ValueError(
+                    f"ForceMapConfig.{f.name}: filled in by the fit (from the dataset), not a setting; leave it "
+                    f"at its default ({default!r}), got {getattr(self, f.name)!r}"
+                )
 
     @classmethod
     def field_names(cls) -> tuple[str, ...]:

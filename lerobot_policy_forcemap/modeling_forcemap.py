@@ -88,6 +88,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         self.fit_report: FitReport | None = None
         self._skill: FittedSkill | None = None
         if dataset_meta is not None and config.pretrained_path is None:
+            config.check_unfitted()
             self.fit_dataset(
                 str(dataset_meta.repo_id), None if dataset_meta.root is None else str(dataset_meta.root)
             )

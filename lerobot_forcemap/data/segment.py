@@ -494,7 +494,8 @@ def run(args: argparse.Namespace) -> int:
             f"note: {len(single)} of {len(segs)} episode(s) found no changepoint. --window {args.window} and "
             f"--min-run {args.min_run} count frames; the authors' 64 frames are {AUTHORS_WINDOW_S:.2f} s at "
             f"their ~166 Hz, which at this dataset's {fps:g} fps is --window {scaled} --min-run {scaled} "
-            "(what the forcemap policy uses)"
+            "(the forcemap policy's window at this rate; its own segments='auto' reads the commanded action, "
+            "not the measured pose, so its cuts can differ: fit with segments='dataset' to use these labels)"
         )
     if not args.dry_run:
         what = f"{layout.SEGMENT_INDEX}" + ("" if args.no_subtasks else f" and {args.style} subtasks")

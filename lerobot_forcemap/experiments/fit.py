@@ -48,6 +48,8 @@ def make_config(episodes: Sequence[int] | None = None, overrides: Sequence[str] 
         if "=" not in item:
             raise ValueError(f"--set {item!r}: expected FIELD=VALUE")
         name, value = item.split("=", 1)
+        if name == "episodes" and episodes is not None:  # one of the two would be dropped silently
+            raise ValueError(f"--set {item!r} and --episodes both choose the episodes; give one of them")
         if name not in ForceMapConfig.field_names():
             raise ValueError(
                 f"--set {name}: not a ForceMapConfig field (see lerobot_policy_forcemap/configuration_forcemap.py)"

@@ -229,6 +229,7 @@ def test_no_changepoint_note_gives_the_window_in_frames_at_the_dataset_fps(datas
     )
     out = capsys.readouterr().out
     assert "found no changepoint" in out and f"at this dataset's {FPS} fps is --window 19 --min-run 19" in out
+    assert "its cuts can differ: fit with segments='dataset' to use these labels" in out
 
 
 def test_a_dataset_without_force_is_segmented_with_a_warning(tmp_path):

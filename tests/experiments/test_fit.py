@@ -78,3 +78,10 @@ def test_bad_settings_are_named():
 def test_not_a_dataset(tmp_path):
     with pytest.raises(ValueError, match="not a LeRobot dataset"):
         main(["fit", "--dataset", str(tmp_path), "--out", str(tmp_path / "o")])
+
+
+def test_episodes_given_twice_are_refused():
+    # `--set episodes=[3] --episodes 5` used to fit episode 5 without a word
+    with pytest.raises(ValueError, match=r"--set 'episodes=\[3\]' and --episodes both choose the episodes"):
+        make_config([5], ["episodes=[3]"])
+    assert make_config(None, ["episodes=[3]"]).episodes == [3]

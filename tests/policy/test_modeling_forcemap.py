@@ -183,6 +183,19 @@ def test_a_checkpoint_is_not_refitted_on_another_tasks_dataset(press_checkpoint,
         ForceMapPolicy(cfg, dataset_meta=erase)
 
 
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [("fps", 50.0), ("env_state_names", ["button_x"]), ("dataset_tasks", ["Press the red button."])],
+)
+def test_a_fitted_field_given_before_the_fit_is_refused(press_dataset, field, value):
+    """``lerobot-train --policy.fps=50`` used to be overwritten by the fit without a word."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
+
+    cfg = ForceMapConfig(**{field: value})
+    with pytest.raises(ValueError, match=rf"ForceMapConfig.{field}: filled in by the fit .* got"):
+        ForceMapPolicy(cfg, dataset_meta=LeRobotDatasetMetadata("local/press", root=press_dataset))
+
+
 def test_multi_episode_fit_with_dataset_phases(press_dataset, tmp_path):
     pol = fit_and_save(
         press_dataset,
