@@ -113,6 +113,12 @@ class ForcemapEnvConfig(EnvConfig):
     def __post_init__(self):
         if self.obs_type not in ("state", "pixels_state"):
             raise ValueError(f"obs_type must be 'state' or 'pixels_state', got {self.obs_type!r}")
+        if self.render_mode != "rgb_array":
+            # lerobot-eval always writes videos from env.render(); without frames eval_info.json would
+            # list videos that were never written
+            raise ValueError(
+                f"render_mode must be 'rgb_array' (LeRobot's eval renders videos from it), got {self.render_mode!r}"
+            )
         rate = task_entry(self.forcemap_task).control_hz
         if self.fps != rate:  # LeRobot writes eval videos at fps; the simulation always steps at its rate
             raise ValueError(

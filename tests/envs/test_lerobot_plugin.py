@@ -37,6 +37,8 @@ def test_an_fps_other_than_the_control_rate_is_refused(env_type):
     with pytest.raises(ValueError, match=r"fps: the \w+ task runs at its control rate, 20 Hz.*got fps=10"):
         make_env_config(env_type, fps=10)
     assert make_env_config(env_type, fps=20).fps == 20
+    with pytest.raises(ValueError, match="render_mode must be 'rgb_array'.*got None"):
+        make_env_config(env_type, render_mode=None)  # videos listed in eval_info.json were never written
 
 
 def test_make_env_and_preprocess_observation_deliver_force():
