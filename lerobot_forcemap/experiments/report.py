@@ -221,6 +221,7 @@ def plot_paths(doc: dict[str, Any], path: Path) -> Path | None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     rep = next((r for r in doc["episodes"] if r.get("trace")), None)
     if rep is None:
@@ -252,6 +253,8 @@ def plot_paths(doc: dict[str, Any], path: Path) -> Path | None:
         ax_z.plot(t, ee[:, 2], color=colour, lw=2, label=f"{label}: executed")
     pts = np.concatenate([np.column_stack(line.get_data_3d()) for line in ax.get_lines()])
     ax.set_box_aspect(np.maximum(np.ptp(pts, axis=0), 40.0))  # equal mm scale, at least 40 mm per axis
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):  # a short axis at the default density overprints its ticks
+        axis.set_major_locator(MaxNLocator(nbins=4))
     ax.set_xlabel(f"x - {frame} (mm)")
     ax.set_ylabel(f"y - {frame} (mm)")
     ax.set_zlabel(f"z - {frame} (mm)")
@@ -263,7 +266,7 @@ def plot_paths(doc: dict[str, Any], path: Path) -> Path | None:
     ax_z.legend(fontsize=7)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")  # the 3-D axis labels reach past the figure
     plt.close(fig)
     return path
 
