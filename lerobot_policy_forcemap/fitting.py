@@ -387,6 +387,17 @@ def fit_skill(
             )
         except ValueError as err:
             raise ValueError(f"segment {s} (episodes {[ep.episode for ep in episodes]}): {err}") from err
+        for what, fit in (("arm", arm), ("gripper", grip)):
+            if fit.stop_reason == "max_iter":
+                # the EM still moved: these nodes are one iterate of many, not a fixed point
+                logger.warning(
+                    "segment %d: the %s map's EM stopped at max_iter=%d without converging (%d capped "
+                    "node-axes); its nodes may change with max_iter. A stiffer map (stiffness) caps fewer nodes.",
+                    s,
+                    what,
+                    fit.n_iter,
+                    len(fit.capped_nodes),
+                )
         segments.append(
             SegmentMaps(
                 nodes=arm.nodes[:, :3],

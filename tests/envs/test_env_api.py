@@ -116,3 +116,16 @@ def test_stepping_after_the_episode_ended_warns_once():
         env.step(down)  # said once
         env.reset(seed=0)
         env.step(np.concatenate([env.unwrapped.tcp_pose()[0], env.unwrapped.tcp_pose()[1], [1.0]]))
+
+
+@pytest.mark.parametrize("task", sorted(TASKS))
+def test_physics_options_are_the_specs(task):
+    """SPEC §4: 2 ms timestep, implicitfast integrator, elliptic friction cones (contact forces depend on them)."""
+    import mujoco
+
+    env = E.make(task, render_mode=None)
+    opt = env.unwrapped.model.opt
+    assert opt.timestep == 0.002
+    assert opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    assert opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
+    env.close()

@@ -129,3 +129,16 @@ def test_segmentation_window_scales_with_fps():
     assert segmentation_config(cfg, 5.0).window == 5  # Savitzky-Golay order 4 needs >= 5
     cp = segment_episode(press_episode(0), ForceMapConfig(device="cpu", segments="auto"), 20.0)
     assert cp[0] == 0 and cp[-1] == press_episode(0).n_frames and len(cp) >= 2
+
+
+def test_a_fit_stopped_at_max_iter_is_reported(caplog):
+    with caplog.at_level("WARNING"):
+        _, report, _ = _fit([press_episode(0, depth=DEPTH, K=K_DEMO)], max_iter=1)
+    stopped = [r["segment"] for r in report.summary() if r["stop_reason"] == "max_iter"]
+    assert stopped  # one EM iteration does not converge on these segments
+    for s in stopped:
+        assert f"segment {s}: the arm map's EM stopped at max_iter=1 without converging" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING"):
+        _fit([press_episode(0, depth=DEPTH, K=K_DEMO)])
+    assert "without converging" not in caplog.text

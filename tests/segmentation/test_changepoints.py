@@ -162,3 +162,23 @@ def test_a_flat_topped_peak_is_one_changepoint_at_its_middle_in_library_and_refe
         [0.1, 0.2, 0.5, 0.5, 0.5, 0.5, 0.2, 0.5, 0.5]
     )  # 4-wide top; a plateau at the edge is no peak
     assert peak_changepoints(wide, 0.01, 2.0, 1).tolist() == loop_peaks(wide, 0.01, 2.0, 1) == [3]
+
+
+def test_peaks_must_reach_peak_ratio_times_the_floor():
+    """SPEC §2 "above the floor", with the documented margin: in linear pooling a keypoint that only one
+    of two streams sees stands 1.6x above the floor, below the default peak_ratio of 2."""
+    from lerobot_forcemap.segmentation.combine import combine_pmfs, stream_pmf
+    from lerobot_forcemap.segmentation.config import SegmentationConfig
+
+    cfg = SegmentationConfig()
+    n = 300
+    one, f_one = stream_pmf(np.array([150]), n, cfg.sigma_frames, cfg.floor)
+    none, f_none = stream_pmf(np.array([], dtype=int), n, cfg.sigma_frames, cfg.floor)
+    pmf, floor = combine_pmfs(
+        np.stack([one, none]), np.array([f_one, f_none]), np.array([1.0, 1.0]), "linear"
+    )
+    ratio = pmf.max() / floor
+    assert 1.5 < ratio < 2.0 and cfg.peak_ratio == 2.0
+    assert peak_changepoints(pmf, floor, cfg.peak_ratio, cfg.window).tolist() == []
+    assert peak_changepoints(pmf, floor, 1.0, cfg.window).tolist() == [150]
+    assert peak_changepoints(pmf, floor, ratio * 1.001, cfg.window).tolist() == []
