@@ -14,17 +14,14 @@ to be identical.
 
 from __future__ import annotations
 
-import os
-
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-
 import argparse  # noqa: E402
 import json  # noqa: E402
+import os
 import platform  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+import bench_setup  # noqa: E402,F401  (one BLAS thread, line-buffered output; before NumPy)
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 

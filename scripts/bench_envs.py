@@ -20,14 +20,13 @@ import argparse
 import json
 import os
 import statistics
+import sys
 import time
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-
+import bench_setup  # noqa: E402,F401  (one BLAS thread, MUJOCO_GL, line-buffered output; before NumPy)
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
+from tqdm import tqdm  # noqa: E402
 
 import lerobot_forcemap.envs as E  # noqa: E402
 from lerobot_forcemap.envs.demonstrators import make_demonstrator  # noqa: E402
@@ -115,9 +114,8 @@ def main() -> int:
     if args.cores and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, set(sorted(os.sched_getaffinity(0))[: args.cores]))
     rows = []
-    for task in TASKS:
-        if task not in ("press", "erase", "peg_in_hole", "grasp_push", "grasp_flip"):
-            continue
+    tasks = [t for t in TASKS if t in ("press", "erase", "peg_in_hole", "grasp_push", "grasp_flip")]
+    for task in tqdm(tasks, desc="bench_envs", unit="task", file=sys.stderr):
         build = bench_build(task)
         rtf, bare, steps = bench_rtf(task, args.episodes)
         r256 = r128 = float("nan")

@@ -16,14 +16,8 @@ much the fit adds on top of the unavoidable I/O. With ``--no-train`` omitted, on
 
 from __future__ import annotations
 
-import os
-
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("HF_HUB_OFFLINE", "1")
-os.environ.setdefault("MUJOCO_GL", "egl")
-
 import argparse  # noqa: E402
+import os
 import statistics  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -31,12 +25,16 @@ import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+import bench_setup  # noqa: E402,F401  (one BLAS thread, offline Hub, line-buffered output; before NumPy)
+
 REPO = Path(__file__).resolve().parents[1]
 TARGET_S = 1.0
 
 
-def median_ms(fn, runs: int) -> tuple[float, object]:
+def median_ms(fn, runs: int, label: str = "") -> tuple[float, object]:
     times, out = [], None
+    if label:  # progress on stderr: the whole script takes ~40 s
+        print(f"timing {label} ({runs} runs)", file=sys.stderr, flush=True)
     for _ in range(runs):
         t0 = time.perf_counter()
         out = fn()
@@ -53,30 +51,47 @@ def main(argv=None) -> int:
     dataset = Path(args.dataset)
 
     t_import = time.perf_counter()
+    # timed apart (excluded from the figures): the modules _bench uses, imported once here
+    import lerobot.datasets.lerobot_dataset  # noqa: F401
+
+    import lerobot_forcemap.experiments.fit  # noqa: F401
+    import lerobot_policy_forcemap.modeling_forcemap  # noqa: F401
+    from lerobot_forcemap.lerobot_logs import quiet_torchcodec_warning
+
+    t_import = time.perf_counter() - t_import
+    quiet_torchcodec_warning()
+    with tempfile.TemporaryDirectory(prefix="bench_policy_fit_") as tmp_dir:
+        return _bench(args, dataset, Path(tmp_dir), t_import)
+
+
+def _bench(args, dataset: Path, tmp: Path, t_import: float) -> int:
     from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
 
     from lerobot_forcemap.experiments.fit import fit_policy, make_config
-    from lerobot_forcemap.lerobot_logs import quiet_torchcodec_warning
     from lerobot_policy_forcemap.episodes import load_episodes
     from lerobot_policy_forcemap.fitting import fit_skill
     from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
 
-    t_import = time.perf_counter() - t_import
-    quiet_torchcodec_warning()
-    tmp = Path(tempfile.mkdtemp(prefix="bench_policy_fit_"))
-    fit_policy(dataset, tmp / "warmup", overwrite=True)  # warm-up: lazy imports, caches
+    print("warm-up fit (imports, caches)", file=sys.stderr, flush=True)
+    fit_policy(dataset, tmp / "warmup", overwrite=True)
 
     cfg = make_config([0])
-    total, res = median_ms(lambda: fit_policy(dataset, tmp / "one", overwrite=True), args.runs)
-    meta_ms, _ = median_ms(lambda: LeRobotDatasetMetadata("local/press", root=dataset), args.runs)
-    read_ms, loaded = median_ms(lambda: load_episodes("local/press", str(dataset), cfg), args.runs)
+    total, res = median_ms(
+        lambda: fit_policy(dataset, tmp / "one", overwrite=True), args.runs, "one-shot fit"
+    )
+    meta_ms, _ = median_ms(lambda: LeRobotDatasetMetadata("local/press", root=dataset), args.runs, "metadata")
+    read_ms, loaded = median_ms(
+        lambda: load_episodes("local/press", str(dataset), cfg), args.runs, "reading episode 0"
+    )
     episodes, features, fps, _tasks = loaded
     names = list(features["observation.environment_state"]["names"])
-    fit_ms, (skill, report) = median_ms(lambda: fit_skill(episodes, cfg, fps, names), args.runs)
+    fit_ms, (skill, report) = median_ms(lambda: fit_skill(episodes, cfg, fps, names), args.runs, "fit_skill")
     policy = res.policy
-    save_ms, _ = median_ms(lambda: policy.save_pretrained(tmp / "save"), args.runs)
+    save_ms, _ = median_ms(lambda: policy.save_pretrained(tmp / "save"), args.runs, "save_pretrained")
     ten = dict(episodes=list(range(10)), overrides=["segments=dataset", "segment_column=demo_phase"])
-    total10, _ = median_ms(lambda: fit_policy(dataset, tmp / "ten", overwrite=True, **ten), args.runs)
+    total10, _ = median_ms(
+        lambda: fit_policy(dataset, tmp / "ten", overwrite=True, **ten), args.runs, "10-episode fit"
+    )
     assert isinstance(policy, ForceMapPolicy)
 
     rows = [
@@ -97,6 +112,7 @@ def main(argv=None) -> int:
     for name, ms in rows:
         print(f"| {name} | {ms:.1f} | {ms / read_ms:.2f} |")
     if not args.no_train:
+        print("timing one lerobot-train --steps=1 subprocess", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
         out = subprocess.run(
             [

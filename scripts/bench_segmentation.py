@@ -12,18 +12,15 @@ checks that both give the same changepoints and keypoints, and prints a markdown
 
 from __future__ import annotations
 
-import os
-
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-
 import argparse  # noqa: E402
 import gc  # noqa: E402
+import os
 import sys  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+import bench_setup  # noqa: E402,F401  (one BLAS thread, line-buffered output; before NumPy)
 import h5py  # noqa: E402
 import numpy as np  # noqa: E402
 
