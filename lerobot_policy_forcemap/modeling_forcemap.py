@@ -87,6 +87,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         self.register_parameter(DUMMY_PARAMETER, nn.Parameter(torch.zeros(1)))
         self.fit_report: FitReport | None = None
         self._skill: FittedSkill | None = None
+        self._warned_clock = False  # the control_fps warning: once per policy, not per episode
         if dataset_meta is not None and config.pretrained_path is None:
             config.check_unfitted()
             self.fit_dataset(
@@ -233,7 +234,6 @@ class ForceMapPolicy(PreTrainedPolicy):
         self._observed_as: dict[str, np.ndarray] = {}
         self._provisional: list[bool] = []
         self.reanchor_log: list[dict[str, Any]] = []  # (segment, batch row, shift) of each re-anchoring
-        self._warned_clock = getattr(self, "_warned_clock", False)  # once per policy, not per episode
 
     def place(self, batch: dict[str, Tensor]) -> list[Reproduction]:
         """The skill placed in each batch element's scene (robot pose + object poses of the observation)."""

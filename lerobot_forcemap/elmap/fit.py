@@ -625,13 +625,12 @@ def fit_force_elastic_map(
     y = arc_length_resample(first, n_nodes, arc)
     arc = arc / arc[-1]
 
-    # the first demo's arc fraction at each distinct normalised time (first sample of a repeated time)
-    via_times, first_at = np.unique(norm_times[0], return_index=True)
-    via_arc = arc[first_at]
-
     def time_fraction_to_node(frac: float) -> int:
-        # interpolated between samples: a sparse demo must not snap the via point to its next sample
-        return int(round(float(np.interp(frac, via_times, via_arc)) * (n_nodes - 1)))
+        # the first demo's arc fraction at that time (first sample of a repeated time), interpolated
+        # between samples: a sparse demo must not snap the via point to its next sample. Only called for
+        # via points given by time, so a fit without them does not pay for the sort.
+        times, first_at = np.unique(norm_times[0], return_index=True)
+        return int(round(float(np.interp(frac, times, arc[first_at])) * (n_nodes - 1)))
 
     rc: ResolvedConstraints = resolve_constraints(constraints, n_nodes, dim, time_fraction_to_node)
     if len(rc.fixed_index):
