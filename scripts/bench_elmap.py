@@ -14,18 +14,18 @@ to be identical.
 
 from __future__ import annotations
 
-import argparse  # noqa: E402
-import json  # noqa: E402
+import argparse
+import json
 import os
-import platform  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import platform
+import time
+from pathlib import Path
 
-import bench_setup  # noqa: E402,F401  (one BLAS thread, line-buffered output; before NumPy)
-import numpy as np  # noqa: E402
-from tqdm import tqdm  # noqa: E402
+import bench_setup  # noqa: F401  (one BLAS thread, line-buffered output; before NumPy)
+import numpy as np
+from tqdm import tqdm
 
-from lerobot_forcemap.elmap import (  # noqa: E402
+from lerobot_forcemap.elmap import (
     DEFAULT_DELTA,
     DEFAULT_F_CONTACT,
     DEFAULT_LAMBDA,
@@ -38,7 +38,7 @@ from lerobot_forcemap.elmap import (  # noqa: E402
     force_point_weights,
     make_force_points,
 )
-from lerobot_forcemap.elmap.kernel import NUMPY_ENV, load_em_kernel  # noqa: E402
+from lerobot_forcemap.elmap.kernel import NUMPY_ENV, load_em_kernel
 
 
 def wipe_problem(m: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

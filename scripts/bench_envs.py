@@ -23,14 +23,14 @@ import statistics
 import sys
 import time
 
-import bench_setup  # noqa: E402,F401  (one BLAS thread, MUJOCO_GL, line-buffered output; before NumPy)
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
-from tqdm import tqdm  # noqa: E402
+import bench_setup  # noqa: F401  (one BLAS thread, MUJOCO_GL, line-buffered output; before NumPy)
+import mujoco
+import numpy as np
+from tqdm import tqdm
 
-import lerobot_forcemap.envs as E  # noqa: E402
-from lerobot_forcemap.envs.demonstrators import make_demonstrator  # noqa: E402
-from lerobot_forcemap.envs.registration import TASKS  # noqa: E402
+import lerobot_forcemap.envs as E
+from lerobot_forcemap.envs.demonstrators import make_demonstrator
+from lerobot_forcemap.envs.registration import TASKS
 
 
 def env_class(task: str):

@@ -16,16 +16,16 @@ much the fit adds on top of the unavoidable I/O. With ``--no-train`` omitted, on
 
 from __future__ import annotations
 
-import argparse  # noqa: E402
+import argparse
 import os
-import statistics  # noqa: E402
-import subprocess  # noqa: E402
-import sys  # noqa: E402
-import tempfile  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
 
-import bench_setup  # noqa: E402,F401  (one BLAS thread, offline Hub, line-buffered output; before NumPy)
+import bench_setup  # noqa: F401  (one BLAS thread, offline Hub, line-buffered output; before NumPy)
 
 REPO = Path(__file__).resolve().parents[1]
 TARGET_S = 1.0

@@ -12,19 +12,19 @@ checks that both give the same changepoints and keypoints, and prints a markdown
 
 from __future__ import annotations
 
-import argparse  # noqa: E402
-import gc  # noqa: E402
+import argparse
+import gc
 import os
-import sys  # noqa: E402
-import time  # noqa: E402
-from collections.abc import Callable  # noqa: E402
-from pathlib import Path  # noqa: E402
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
 
-import bench_setup  # noqa: E402,F401  (one BLAS thread, line-buffered output; before NumPy)
-import h5py  # noqa: E402
-import numpy as np  # noqa: E402
+import bench_setup  # noqa: F401  (one BLAS thread, line-buffered output; before NumPy)
+import h5py
+import numpy as np
 
-from lerobot_forcemap.segmentation import (  # noqa: E402
+from lerobot_forcemap.segmentation import (
     SegmentationConfig,
     Stream,
     analyse_stream,
@@ -34,8 +34,8 @@ from lerobot_forcemap.segmentation import (  # noqa: E402
     segment_streams,
     stream_pmf,
 )
-from lerobot_forcemap.segmentation.reference import loop_segment_streams  # noqa: E402
-from lerobot_forcemap.shared_data import find_shared_data  # noqa: E402
+from lerobot_forcemap.segmentation.reference import loop_segment_streams
+from lerobot_forcemap.shared_data import find_shared_data
 
 TARGET_MS = 5.0
 THRESHOLDS = {"joints": 0.20, "cartesian": 0.25, "wrist_force": 0.15, "wrist_torque": 0.15, "gripper": 0.10}
@@ -108,7 +108,7 @@ def stage_breakdown(streams: list[Stream], config: SegmentationConfig, runs: int
     ]
 
 
-def plot(streams: list[Stream], seg, path: Path) -> None:  # noqa: ANN001
+def plot(streams: list[Stream], seg, path: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
