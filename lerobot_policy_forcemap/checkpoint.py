@@ -8,9 +8,12 @@ is caught before loading, by reading the safetensors header only.
 
 from __future__ import annotations
 
+import logging
+import os
 from pathlib import Path
 
 import numpy as np
+from huggingface_hub import hf_hub_download
 
 from lerobot_forcemap.jsonfile import read_json_object
 
@@ -24,7 +27,10 @@ __all__ = [
     "check_skill_values",
     "check_processor_files",
     "PROCESSOR_FILES",
+    "fetch_hub_checkpoint",
 ]
+
+logger = logging.getLogger(__name__)
 
 #: fitted arrays are stored in float64 (bit-exact round trips, no float32 rounding of node positions)
 TENSOR_DTYPE = "F64"
@@ -141,6 +147,9 @@ def check_processor_files(folder: str | Path, *, required: bool) -> None:
 
     LeRobot reports a truncated state file as a bare ``SafetensorError`` and a broken pipeline JSON as a
     JSON error, neither naming the file, and a missing pipeline as a checkpoint "requiring migration".
+    LeRobot also imports and calls whatever a step's ``"class"`` names before checking it is a processor
+    step, so a pipeline file could run any importable callable: steps must name a registered processor
+    (``"registry_name"``) or a ``ProcessorStep`` class of LeRobot or this plugin.
     ``required``: whether the pipelines must be there (``lerobot-eval``/``forcemap eval``/``push`` load
     them; ``ForceMapPolicy.from_pretrained`` alone does not).
     """
@@ -155,12 +164,15 @@ def check_processor_files(folder: str | Path, *, required: bool) -> None:
                     f"{path}: file not found (a checkpoint saved by lerobot-train or forcemap fit has "
                     f"{' and '.join(PROCESSOR_FILES)} next to config.json)"
                 )
+            # lerobot-eval would call this a checkpoint "requiring migration" without naming the file
+            logger.warning("%s: file not found; lerobot-eval needs it to run this policy", path)
             continue
         steps = read_json_object(path).get("steps")
         if not isinstance(steps, list):
             raise ValueError(f"{path}: expected a 'steps' list, got {type(steps).__name__}")
         for i, step in enumerate(steps):
-            state_file = step.get("state_file") if isinstance(step, dict) else None
+            _check_step_class(step, f"{path}: steps[{i}]")
+            state_file = step.get("state_file")
             if state_file is None:
                 continue
             state = folder / str(state_file)
@@ -176,3 +188,98 @@ def check_processor_files(folder: str | Path, *, required: bool) -> None:
                         f.get_slice(key)
             except (SafetensorError, OSError, ValueError) as err:
                 raise ValueError(f"{state}: not a readable safetensors file ({err})") from err
+
+
+#: modules a pipeline step's ``"class"`` may come from (imported to check the class; nothing else is)
+TRUSTED_STEP_MODULES = ("lerobot", "lerobot_policy_forcemap")
+
+
+def _check_step_class(step: object, where: str) -> None:
+    """Raise ``ValueError`` unless ``step`` names a processor step LeRobot may safely build."""
+    import importlib
+
+    from lerobot.processor import ProcessorStep, ProcessorStepRegistry
+
+    if not isinstance(step, dict):
+        raise ValueError(f"{where}: expected an object, got {type(step).__name__}")
+    if "registry_name" in step:
+        name = step["registry_name"]
+        if not isinstance(name, str) or name not in ProcessorStepRegistry.list():
+            raise ValueError(
+                f"{where}.registry_name {name!r} is not a registered LeRobot processor step "
+                f"(known: {', '.join(sorted(ProcessorStepRegistry.list()))})"
+            )
+        return
+    path = step.get("class")
+    if not isinstance(path, str) or "." not in path:
+        raise ValueError(f"{where}: needs 'registry_name' or 'class' (module.ClassName), got {path!r}")
+    module_name, class_name = path.rsplit(".", 1)
+    if module_name.split(".")[0] not in TRUSTED_STEP_MODULES:
+        raise ValueError(
+            f"{where}.class {path!r}: only processor steps from {' or '.join(TRUSTED_STEP_MODULES)} are "
+            "loaded (LeRobot would import and call it before checking it is a processor step)"
+        )
+    try:
+        cls = getattr(importlib.import_module(module_name), class_name)
+    except (ImportError, AttributeError) as err:
+        raise ValueError(f"{where}.class {path!r} cannot be imported ({err})") from err
+    if not (isinstance(cls, type) and issubclass(cls, ProcessorStep)):
+        raise ValueError(f"{where}.class {path!r} is not a LeRobot ProcessorStep")
+
+
+#: the files of a checkpoint on the Hub, the processor pipelines optional (``from_pretrained`` alone
+#: does not need them; their state files are fetched by name from the pipelines)
+HUB_REQUIRED_FILES = ("config.json", "model.safetensors")
+
+
+def fetch_hub_checkpoint(repo_id: str, hub_kwargs: dict) -> Path:
+    """Download (or find in the local cache) the checkpoint files of ``repo_id``; returns their folder.
+
+    Loading then runs the same checks as for a local folder. Without this, a Hub checkpoint skipped
+    them, and a cache lacking a file (offline) surfaced as huggingface_hub's bare "check your
+    connection" error. ``hub_kwargs``: ``hf_hub_download`` arguments (revision, cache_dir, token...).
+    """
+    from huggingface_hub.errors import EntryNotFoundError, HfHubHTTPError, LocalEntryNotFoundError
+
+    offline = os.environ.get("HF_HUB_OFFLINE", "0").upper() in {"1", "ON", "YES", "TRUE"}
+
+    def fetch(filename: str, *, required: bool) -> Path | None:
+        try:
+            return Path(hf_hub_download(repo_id=repo_id, filename=filename, **hub_kwargs))
+        except LocalEntryNotFoundError as err:
+            if not (offline or hub_kwargs.get("local_files_only")):
+                raise ValueError(f"{repo_id}: cannot download {filename} ({err})") from err
+            what = (
+                f"{repo_id}: {filename} is not in the local Hugging Face cache and the Hub is not asked "
+                f"(HF_HUB_OFFLINE={os.environ.get('HF_HUB_OFFLINE', '')!r}, local_files_only="
+                f"{bool(hub_kwargs.get('local_files_only'))})"
+            )
+            if required:
+                raise ValueError(
+                    f"{what}: download the checkpoint once online, or pass a local folder"
+                ) from err
+            # maybe the repo has none (the policy loads without it); lerobot-eval will need it
+            logger.warning("%s; lerobot-eval needs it to run this policy", what)
+            return None
+        except EntryNotFoundError as err:
+            if not required:
+                return None
+            raise ValueError(
+                f"{repo_id}: the repo has no {filename} (a forcemap checkpoint holds "
+                f"{', '.join(HUB_REQUIRED_FILES)} and {', '.join(PROCESSOR_FILES)})"
+            ) from err
+        except HfHubHTTPError as err:  # no such repo or revision, no access
+            raise ValueError(f"{repo_id}: cannot read {filename} from the Hub ({err})") from err
+
+    folder = fetch("config.json", required=True).parent
+    for name in HUB_REQUIRED_FILES[1:]:
+        fetch(name, required=True)
+    for name in PROCESSOR_FILES:
+        pipeline = fetch(name, required=False)
+        steps = read_json_object(pipeline).get("steps") if pipeline else None
+        for step in steps if isinstance(steps, list) else ():
+            state_file = step.get("state_file") if isinstance(step, dict) else None
+            # only plain file names are fetched: check_processor_files reports any other value
+            if isinstance(state_file, str) and Path(state_file).name == state_file:
+                fetch(state_file, required=False)
+    return folder

@@ -402,7 +402,7 @@ class ForceMapConfig(PreTrainedConfig):
                 "segment_n_gripper_nodes",
                 "every segment needs >= 3 nodes",
             )
-            need(self.fps > 0, "fps", "a fitted policy needs the dataset fps > 0")
+            need(0 < float(self.fps) < float("inf"), "fps", "a fitted policy needs a finite dataset fps > 0")
             objects = {a for a in self.segment_anchors if a}
             need(
                 not objects or bool(self.env_state_names),

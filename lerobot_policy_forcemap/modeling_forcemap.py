@@ -43,6 +43,7 @@ from .checkpoint import (
     check_safetensors_file,
     check_skill_values,
     expected_tensors,
+    fetch_hub_checkpoint,
 )
 from .configuration_forcemap import RUNTIME_FIELDS, ForceMapConfig, config_error_detail
 from .episodes import load_episodes
@@ -194,8 +195,13 @@ class ForceMapPolicy(PreTrainedPolicy):
     ):  # noqa: D102
         """LeRobot's loader with clear errors: the failing file and field are named."""
         path = Path(str(pretrained_name_or_path))
-        where = path / "config.json" if path.is_dir() else f"{pretrained_name_or_path} (config.json)"
-        stored = _read_config(pretrained_name_or_path, where, kwargs)
+        if not path.is_dir():
+            # a Hub repo id: fetch the files, then check them as a local folder is checked
+            _check_repo_id_shape(pretrained_name_or_path)
+            hub_kwargs = {k: kwargs[k] for k in _HUB_KWARGS if k in kwargs}
+            path = pretrained_name_or_path = fetch_hub_checkpoint(str(pretrained_name_or_path), hub_kwargs)
+        where = path / "config.json"
+        stored = _read_config(pretrained_name_or_path, where)
         if config is None:
             config = stored
         elif isinstance(config, ForceMapConfig) and isinstance(stored, ForceMapConfig):
@@ -206,8 +212,7 @@ class ForceMapPolicy(PreTrainedPolicy):
             raise ValueError(
                 f"{where}: policy type {getattr(config, 'type', type(config).__name__)!r} is not 'forcemap'"
             )
-        if path.is_dir():  # lerobot-eval reads these next, with errors that name no file
-            check_processor_files(path, required=False)
+        check_processor_files(path, required=False)  # lerobot-eval reads these next, naming no file
         return super().from_pretrained(pretrained_name_or_path, config=config, **kwargs)
 
     @classmethod
@@ -218,6 +223,8 @@ class ForceMapPolicy(PreTrainedPolicy):
         check_safetensors_file(model_file, model.config)
         load_model(model, model_file, strict=True, device=resolve_safetensors_device(map_location))
         arrays = {name: model.get_buffer(name).detach().cpu().numpy() for name in SKILL_TENSORS}
+        # the dummy's value is never used to act, but lerobot-train --policy.path would log its NaN loss
+        arrays[DUMMY_PARAMETER] = getattr(model, DUMMY_PARAMETER).detach().cpu().numpy()
         check_skill_values(arrays, model.config, str(model_file))
         return model
 
@@ -418,35 +425,26 @@ class ForceMapPolicy(PreTrainedPolicy):
 # ---- helpers -------------------------------------------------------------------------------------------
 
 
-_HUB_KWARGS = (
-    "force_download",
-    "resume_download",
-    "proxies",
-    "token",
-    "cache_dir",
-    "local_files_only",
-    "revision",
-)
+#: LeRobot's from_pretrained arguments that hf_hub_download takes (it has no proxies/resume_download now)
+_HUB_KWARGS = ("force_download", "token", "cache_dir", "local_files_only", "revision")
 
 
-def _read_config(pretrained_name_or_path: str | Path, where: object, kwargs: dict[str, Any]):
-    """The policy config stored with a checkpoint (local folder or Hub repo), with clear errors."""
+def _read_config(pretrained_name_or_path: str | Path, where: object):
+    """The policy config stored in a checkpoint folder (a Hub checkpoint is fetched first), with clear errors."""
     from lerobot.configs.policies import PreTrainedConfig
 
-    path = Path(str(pretrained_name_or_path))
-    if path.is_dir():
-        _check_config_json(path / "config.json")
-    elif path.is_absolute() or str(pretrained_name_or_path).startswith(".") or len(path.parts) != 2:
-        # not a folder and not shaped like a Hub repo id: LeRobot would say "Repo id must be in the form"
-        raise ValueError(
-            f"{pretrained_name_or_path}: no such checkpoint folder (nor a Hub repo id owner/name)"
-        )
+    _check_config_json(Path(pretrained_name_or_path) / "config.json")
     try:
-        return PreTrainedConfig.from_pretrained(
-            pretrained_name_or_path, **{k: kwargs[k] for k in _HUB_KWARGS if k in kwargs}
-        )
+        return PreTrainedConfig.from_pretrained(pretrained_name_or_path)
     except Exception as err:  # draccus' ParsingError/DecodingError, hub errors, our own ValueErrors
         raise ValueError(f"{where}: cannot read the policy config: {config_error_detail(err)}") from err
+
+
+def _check_repo_id_shape(name: str | Path) -> None:
+    path = Path(str(name))
+    if path.is_absolute() or str(name).startswith(".") or len(path.parts) != 2:
+        # not a folder and not shaped like a Hub repo id: LeRobot would say "Repo id must be in the form"
+        raise ValueError(f"{name}: no such checkpoint folder (nor a Hub repo id owner/name)")
 
 
 def _refuse_changed_fit_settings(config: ForceMapConfig, stored: ForceMapConfig, where: object) -> None:

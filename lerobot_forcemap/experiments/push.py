@@ -52,6 +52,10 @@ def push_policy(path: str | Path, repo_id: str, *, private: bool | None = None) 
     check_processor_files(path, required=True)
     pre, post = make_pre_post_processors(policy.config, pretrained_path=str(path))
     report = _fit_report(path)
+    # as lerobot-train's push does: the pushed config and the card's usage line name the repo
+    policy.config.repo_id = repo_id
+    if private is not None:
+        policy.config.private = private
     with tempfile.TemporaryDirectory(prefix="forcemap-push-") as tmp:
         staged = Path(tmp)
         policy.save_pretrained(staged)

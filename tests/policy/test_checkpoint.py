@@ -199,6 +199,58 @@ def test_node_times_must_lie_in_their_segment():
         check_skill_values(arrays, cfg, "src")
 
 
+@pytest.mark.parametrize(
+    "step, message",
+    [
+        (
+            {"class": "subprocess.Popen", "config": {"args": ["touch", "{marker}"]}},
+            "only processor steps from",
+        ),
+        ({"class": "lerobot.configs.default.DatasetConfig", "config": {}}, "is not a LeRobot ProcessorStep"),
+        ({"registry_name": "no_such_step", "config": {}}, "is not a registered LeRobot processor step"),
+        ({"config": {}}, "needs 'registry_name' or 'class'"),
+        ("normalizer_processor", "expected an object"),
+    ],
+)
+def test_processor_steps_must_be_lerobot_processors(ckpt, tmp_path, step, message):
+    """LeRobot imports and calls a step's "class" before checking it is a processor step: a pipeline
+    file could run any callable. Refused before anything is built, for every loader."""
+    from lerobot_forcemap.experiments.evaluate import load_policy
+
+    marker = tmp_path / "ran"
+    step = json.loads(json.dumps(step).replace("{marker}", str(marker)))
+    pipeline = json.loads((ckpt / "policy_postprocessor.json").read_text())
+    pipeline["steps"].insert(1, step)
+    (ckpt / "policy_postprocessor.json").write_text(json.dumps(pipeline))
+    for load in (ForceMapPolicy.from_pretrained, load_policy):
+        with pytest.raises(ValueError, match=rf"policy_postprocessor\.json: steps\[1\].*{message}"):
+            load(ckpt)
+    assert not marker.exists()
+
+
+def test_a_non_finite_fps_or_dummy_is_refused(ckpt):
+    """fps inf used to load and freeze the arm (clock at inf Hz); a NaN dummy made lerobot-train's loss NaN."""
+    fitted_fps = json.loads((ckpt / "config.json").read_text())["fps"]
+    _edit_config(ckpt, fps=float("inf"))
+    with pytest.raises(ValueError, match="ForceMapConfig.fps: a fitted policy needs a finite"):
+        ForceMapPolicy.from_pretrained(ckpt)
+    _edit_config(ckpt, fps=fitted_fps)
+    tensors = load_file(ckpt / "model.safetensors")
+    tensors["closed_form_dummy"] = torch.tensor([float("nan")])
+    save_file(tensors, ckpt / "model.safetensors")
+    with pytest.raises(ValueError, match="'closed_form_dummy' has 1 non-finite"):
+        ForceMapPolicy.from_pretrained(ckpt)
+
+
+def test_a_policy_loads_without_its_processors_with_a_warning(ckpt, caplog):
+    """from_pretrained alone does not need them; lerobot-eval would call the checkpoint 'requiring
+    migration' without naming the file, so the loader names it."""
+    (ckpt / "policy_preprocessor.json").unlink()
+    with caplog.at_level("WARNING", logger="lerobot_policy_forcemap.checkpoint"):
+        assert ForceMapPolicy.from_pretrained(ckpt).config.is_fitted
+    assert "policy_preprocessor.json: file not found; lerobot-eval needs it" in caplog.text
+
+
 def test_eval_loader_refuses_a_foreign_config_and_missing_processors(ckpt):
     """forcemap eval's loader: a checkpoint without its processor pipelines is named (LeRobot's own
     message calls it a checkpoint 'requiring migration')."""

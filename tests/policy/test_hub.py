@@ -51,6 +51,7 @@ def hub(tmp_path):
         mock.patch("lerobot.configs.policies.hf_hub_download", side_effect=fake.download),
         mock.patch("lerobot.policies.pretrained.hf_hub_download", side_effect=fake.download),
         mock.patch("lerobot.processor.pipeline.hf_hub_download", side_effect=fake.download),
+        mock.patch("lerobot_policy_forcemap.checkpoint.hf_hub_download", side_effect=fake.download),
         mock.patch("huggingface_hub.repocard.RepoCard.validate"),  # the card check calls the Hub API
     ):
         yield fake
@@ -98,8 +99,51 @@ def test_lerobot_train_style_push(press_checkpoint, hub):
 
 
 def test_missing_repo_is_a_clear_error(hub):
-    with pytest.raises(ValueError, match="cannot read the policy config"):
+    with pytest.raises(ValueError, match="someone/does-not-exist: the repo has no config.json"):
         ForceMapPolicy.from_pretrained("someone/does-not-exist")
+
+
+def _upload(press_checkpoint, hub, repo=REPO):
+    dest = hub.root / repo
+    shutil.copytree(press_checkpoint, dest)
+    return dest
+
+
+def test_a_hub_checkpoint_gets_the_local_checks(press_checkpoint, hub):
+    """A config missing a fitted field, or a pipeline naming an arbitrary class, is refused from the
+    Hub as from a folder (the Hub path used to load them with today's defaults)."""
+    remote = _upload(press_checkpoint, hub)
+    config = json.loads((remote / "config.json").read_text())
+    del config["lam"]
+    (remote / "config.json").write_text(json.dumps(config))
+    with pytest.raises(ValueError, match="'lam'"):
+        ForceMapPolicy.from_pretrained(REPO)
+
+    remote = _upload(press_checkpoint, hub, "someone/other")
+    pipeline = json.loads((remote / "policy_preprocessor.json").read_text())
+    pipeline["steps"][0] = {"class": "subprocess.Popen", "config": {"args": ["true"]}}
+    (remote / "policy_preprocessor.json").write_text(json.dumps(pipeline))
+    with pytest.raises(ValueError, match=r"steps\[0\]\.class 'subprocess\.Popen'"):
+        ForceMapPolicy.from_pretrained("someone/other")
+
+
+def test_an_offline_cache_without_the_weights_names_the_file(press_checkpoint, hub, monkeypatch):
+    from huggingface_hub.errors import LocalEntryNotFoundError
+
+    _upload(press_checkpoint, hub)
+    serve = hub.download
+
+    def cache(repo_id, filename, **kw):
+        if filename == "model.safetensors":
+            raise LocalEntryNotFoundError("An error happened while trying to locate the file on the Hub")
+        return serve(repo_id, filename, **kw)
+
+    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
+    with mock.patch("lerobot_policy_forcemap.checkpoint.hf_hub_download", side_effect=cache):
+        with pytest.raises(
+            ValueError, match=rf"{REPO}: model\.safetensors is not in the local Hugging Face cache"
+        ):
+            ForceMapPolicy.from_pretrained(REPO)
 
 
 def test_forcemap_push_cli_sends_a_loadable_policy(press_checkpoint, tmp_path, hub, capsys):
@@ -129,6 +173,9 @@ def test_forcemap_push_cli_sends_a_loadable_policy(press_checkpoint, tmp_path, h
     assert report == {"dataset": "press", "episodes": [0]}  # no local folders on the Hub
     assert "Fitted from `press`, episodes [0]" in card
     back = ForceMapPolicy.from_pretrained(REPO)
+    # the pushed config and the card's usage line name the repo, as lerobot-train's push does
+    assert back.config.repo_id == REPO and back.config.private is True
+    assert f"--policy.path={REPO}" in card
     local = ForceMapPolicy.from_pretrained(press_checkpoint)
     for name in SKILL_TENSORS:
         assert torch.equal(getattr(back, name), getattr(local, name)), name
