@@ -15,7 +15,7 @@ Per task (``grasp_push``, ``grasp_flip``) and object (the demonstration object, 
   the episode's time limit.
 
 Prints a markdown table: success rate, protective stops, per-finger max force (mean over episodes) and
-max contact force. Numbers depend on the MuJoCo version (see notes/mujoco.md).
+max contact force. Numbers depend on the MuJoCo version (see `../shared/notes/mujoco.md`).
 """
 
 from __future__ import annotations
