@@ -9,7 +9,6 @@ is caught before loading, by reading the safetensors header only.
 from __future__ import annotations
 
 import logging
-import os
 from pathlib import Path
 
 import numpy as np
@@ -239,9 +238,10 @@ def fetch_hub_checkpoint(repo_id: str, hub_kwargs: dict) -> Path:
     them, and a cache lacking a file (offline) surfaced as huggingface_hub's bare "check your
     connection" error. ``hub_kwargs``: ``hf_hub_download`` arguments (revision, cache_dir, token...).
     """
+    from huggingface_hub import is_offline_mode
     from huggingface_hub.errors import EntryNotFoundError, HfHubHTTPError, LocalEntryNotFoundError
 
-    offline = os.environ.get("HF_HUB_OFFLINE", "0").upper() in {"1", "ON", "YES", "TRUE"}
+    offline = is_offline_mode()
 
     def fetch(filename: str, *, required: bool) -> Path | None:
         try:
@@ -251,7 +251,7 @@ def fetch_hub_checkpoint(repo_id: str, hub_kwargs: dict) -> Path:
                 raise ValueError(f"{repo_id}: cannot download {filename} ({err})") from err
             what = (
                 f"{repo_id}: {filename} is not in the local Hugging Face cache and the Hub is not asked "
-                f"(HF_HUB_OFFLINE={os.environ.get('HF_HUB_OFFLINE', '')!r}, local_files_only="
+                f"(HF_HUB_OFFLINE={offline}, local_files_only="
                 f"{bool(hub_kwargs.get('local_files_only'))})"
             )
             if required:

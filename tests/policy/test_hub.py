@@ -127,7 +127,7 @@ def test_a_hub_checkpoint_gets_the_local_checks(press_checkpoint, hub):
         ForceMapPolicy.from_pretrained("someone/other")
 
 
-def test_an_offline_cache_without_the_weights_names_the_file(press_checkpoint, hub, monkeypatch):
+def test_an_offline_cache_without_the_weights_names_the_file(press_checkpoint, hub):
     from huggingface_hub.errors import LocalEntryNotFoundError
 
     _upload(press_checkpoint, hub)
@@ -138,8 +138,10 @@ def test_an_offline_cache_without_the_weights_names_the_file(press_checkpoint, h
             raise LocalEntryNotFoundError("An error happened while trying to locate the file on the Hub")
         return serve(repo_id, filename, **kw)
 
-    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
-    with mock.patch("lerobot_policy_forcemap.checkpoint.hf_hub_download", side_effect=cache):
+    with (
+        mock.patch("huggingface_hub.is_offline_mode", return_value=True),
+        mock.patch("lerobot_policy_forcemap.checkpoint.hf_hub_download", side_effect=cache),
+    ):
         with pytest.raises(
             ValueError, match=rf"{REPO}: model\.safetensors is not in the local Hugging Face cache"
         ):
