@@ -47,6 +47,7 @@ from lerobot_forcemap.data.transforms import (
 __all__ = [
     "DEFAULT_FPS",
     "LOWPASS_FRACTION_OF_FPS",
+    "LOWPASS_MAX_FRACTION_OF_SOURCE",
     "SOURCES_FILE",
     "EpisodeSource",
     "ConversionResult",
@@ -65,6 +66,8 @@ __all__ = [
 DEFAULT_FPS = 50
 # Anti-alias cutoff of the wrench low-pass, as a fraction of the target fps (0.4 fps < Nyquist 0.5 fps).
 LOWPASS_FRACTION_OF_FPS = 0.4
+# ... applied only below this fraction of the source's sample rate (just under its Nyquist 0.5)
+LOWPASS_MAX_FRACTION_OF_SOURCE = 0.45
 SOURCES_FILE = "meta/forcemap_sources.json"
 GBTI_TASKS = {"Cube": "grasp the cube", "Mug": "grasp the mug", "Plate": "grasp the plate"}
 FINGER_FORCE_NAMES = layout.finger_force_names(1, axes="")  # ("f0",): one scalar sensor
@@ -111,13 +114,14 @@ def guess_task(path: str | Path) -> str:
 
 
 def resolve_lowpass_hz(lowpass_hz: float | str | None, fps: float, source_rate_hz: float) -> float | None:
-    """``"auto"``: ``LOWPASS_FRACTION_OF_FPS * fps`` when that is below the source's Nyquist (else no
-    filter: nothing to anti-alias); a number: that cutoff; ``None`` or 0: no filter."""
+    """``"auto"``: ``LOWPASS_FRACTION_OF_FPS * fps`` when that is below ``LOWPASS_MAX_FRACTION_OF_SOURCE``
+    times the source rate, just under its Nyquist (else no filter: nothing to anti-alias); a number: that
+    cutoff; ``None`` or 0: no filter."""
     if lowpass_hz in (None, 0, 0.0):
         return None
     if lowpass_hz == "auto":
         cutoff = LOWPASS_FRACTION_OF_FPS * fps
-        return cutoff if cutoff < 0.45 * source_rate_hz else None
+        return cutoff if cutoff < LOWPASS_MAX_FRACTION_OF_SOURCE * source_rate_hz else None
     return float(lowpass_hz)
 
 
@@ -193,6 +197,7 @@ def _episode_record(
         "wrench_sign": LAB_WRENCH_SIGN,
         "force_lowpass_hz": lowpass,
         "gripper_recorded": rec.gripper is not None,
+        "not_converted": list(rec.not_converted),
         "warnings": list(a.warnings),
     }
 
@@ -295,6 +300,14 @@ def convert_episodes(
         if dataset is None:
             raise ValueError("no recordings to convert")
         dataset.finalize()
+        not_converted = _not_converted(records)
+        if not_converted:  # known parts of the format, dropped on purpose: said once, not per file
+            warnings.warn(
+                f"{not_converted} recorded in {sum(bool(r['not_converted']) for r in records)} of "
+                f"{len(records)} episode(s): not converted (the dataset holds joint positions only); "
+                f"listed per episode in {SOURCES_FILE} and in the card",
+                stacklevel=2,
+            )
     except BaseException:
         if dataset is not None:  # close the writers, then remove the half-written dataset
             dataset.finalize()
@@ -329,6 +342,11 @@ def convert_episodes(
     )
     replace_dir(out, work)
     return ConversionResult(out, repo_id, fps, len(records), n_frames, records)
+
+
+def _not_converted(records: Sequence[dict[str, Any]]) -> list[str]:
+    """Source datasets some episode had but the dataset does not hold (``Recording.not_converted``)."""
+    return sorted({p for r in records for p in r["not_converted"]})
 
 
 def _refuse_output_holding_inputs(out: str | Path, inputs: Sequence[Path]) -> None:
@@ -394,6 +412,12 @@ def _write_card(
         "Gripper": f"opening normalised raw/{gripper_full_scale:g} (0 open .. 1 closed); recordings without a "
         "gripper stream get 0",
     }
+    not_converted = _not_converted(records)
+    if not_converted:
+        notes["Not converted"] = (
+            f"{', '.join(f'`{p}`' for p in not_converted)} of the source recordings (per episode in "
+            f"`{SOURCES_FILE}`)"
+        )
     notes.update(extra or {})
     episodes_md = ["| episode | source | task | frames | tare window |", "|---|---|---|---|---|"]
     for r in records:
@@ -432,9 +456,16 @@ def convert_recordings(
     paths = [Path(p) for p in paths]
     if not paths:
         raise ValueError("no input files")
+    seen: dict[Path, Path] = {}
     for p in paths:
         if not p.is_file():
             raise ValueError(f"input file not found: {p}")
+        # the same recording twice would be two identical episodes (like a GBTI key given twice)
+        if p.resolve() in seen:
+            raise ValueError(
+                f"input file given more than once: {seen[p.resolve()]} and {p} are the same file"
+            )
+        seen[p.resolve()] = p
     _refuse_output_holding_inputs(out, paths)
 
     def sources():
@@ -472,7 +503,12 @@ def convert_gbti(
         raise ValueError(f"GBTI keys given more than once: {repeated}")
 
     def sources():
-        for key, rec in iter_gbti_demos(path, key_list):
+        demos = iter_gbti_demos(path, key_list)
+        for index, key in enumerate(key_list):
+            try:
+                key, rec = next(demos)
+            except ValueError as err:  # name the episode and the demo, as for lab files
+                raise ValueError(f"episode {index} ({path}:{key}): {err}") from None
             text = task or GBTI_TASKS.get(key.object, f"grasp the {key.object.lower()}")
             yield EpisodeSource(rec, text, f"{path}:{key}", key)
 
@@ -517,7 +553,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--force-lowpass-hz",
         default="auto",
-        help=f"wrench anti-alias cutoff in Hz, 'auto' ({LOWPASS_FRACTION_OF_FPS} x fps) or 0 for none",
+        help=f"wrench anti-alias cutoff in Hz, or 0 for none; 'auto' (default): {LOWPASS_FRACTION_OF_FPS} x "
+        f"--fps when that is below {LOWPASS_MAX_FRACTION_OF_SOURCE} x the recorded wrench's sample rate, else no "
+        f"filter (per episode in {SOURCES_FILE})",
     )
     parser.add_argument(
         "--gripper-full-scale", type=float, default=GRIPPER_FULL_SCALE, help="raw gripper reading = closed"

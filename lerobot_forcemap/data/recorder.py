@@ -60,6 +60,8 @@ class Recording:
     wrench_time (Tw,), force_tool (Tw, 3) N, torque_tool (Tw, 3) N·m: raw sensor wrench, tool frame, biased.
     gripper_time/gripper (Tg,) raw gripper reading (counts, 0 open .. ~100 closed) or None.
     finger_force_time/finger_force (Tf,) raw GBTI finger-force counts (uncalibrated) or None.
+    not_converted: datasets of the format present in the file but not read (joint velocities and
+    efforts, :data:`NOT_CONVERTED`), for the converter to report.
     """
 
     name: str
@@ -75,6 +77,7 @@ class Recording:
     gripper: F64 | None = None
     finger_force_time: F64 | None = None
     finger_force: F64 | None = None
+    not_converted: tuple[str, ...] = ()
 
     @property
     def streams(self) -> dict[str, tuple[F64, F64]]:
@@ -200,6 +203,8 @@ RECORDER_LAYOUT: dict[str, frozenset[str]] = {
     "wrench_info": frozenset({"wrench_force", "wrench_torque", "wrench_time"}),
     "gripper_info": frozenset({"gripper_position", "gripper_vals", "gripper_time", "forces", "force_time"}),
 }
+#: datasets of :data:`RECORDER_LAYOUT` that are not converted (the dataset holds joint positions only)
+NOT_CONVERTED = ("joint_state_info/joint_velocities", "joint_state_info/joint_effort")
 
 
 def _warn_unknown_content(g: h5py.Group, name: str) -> None:
@@ -243,6 +248,11 @@ def _read_group(g: h5py.Group, name: str) -> Recording:
     gripper_time = gripper = ff_time = ff = None
     if "gripper_info" in g:
         gi = g["gripper_info"]
+        if "gripper_position" in gi and "gripper_vals" in gi:  # no documented precedence: do not guess
+            raise ValueError(
+                f"recording {name!r}: 'gripper_info' holds both 'gripper_position' (lab recorder) and "
+                "'gripper_vals' (GBTI); expected one gripper reading"
+            )
         key = (
             "gripper_position"
             if "gripper_position" in gi
@@ -275,6 +285,7 @@ def _read_group(g: h5py.Group, name: str) -> Recording:
         gripper=gripper,
         finger_force_time=ff_time,
         finger_force=ff,
+        not_converted=tuple(p for p in NOT_CONVERTED if p in g),
     )
     _warn_unknown_content(g, name)  # after a successful read: a file of another layout fails with its reason
     return recording
@@ -305,14 +316,20 @@ def _open_h5(path: Path) -> h5py.File:
 
 
 def gbti_keys(path: str | Path) -> list[GbtiKey]:
-    """All demo keys of a GBTI file, sorted by object, user, position."""
+    """All demo keys of a GBTI file, sorted by object, user, position.
+
+    Datasets beside the object and user groups (notes, calibration) are not demos: they are skipped
+    with a warning naming them."""
     keys = []
+    skipped = []
     with _open_h5(Path(path)) as f:
         for obj in f:
             if not isinstance(f[obj], h5py.Group):
+                skipped.append(obj)
                 continue
             for user in f[obj]:
                 if not isinstance(f[obj][user], h5py.Group):
+                    skipped.append(f"{obj}/{user}")
                     continue
                 for pos in f[obj][user]:
                     if (
@@ -323,9 +340,18 @@ def gbti_keys(path: str | Path) -> list[GbtiKey]:
                             f"{path}: {obj}/{user}/{pos} is not a GBTI demo group (not a GBTI file? a lab-"
                             "recorder file is converted without --gbti)"
                         )
-                    keys.append(GbtiKey.parse(f"{obj}/{user}/{pos}"))
+                    try:
+                        keys.append(GbtiKey.parse(f"{obj}/{user}/{pos}"))
+                    except ValueError as err:
+                        raise ValueError(f"{path}: {err}") from None
     if not keys:
         raise ValueError(f"{path}: no /Object/UserN/PositionM groups (not a GBTI file?)")
+    if skipped:  # say so rather than drop it silently, as _warn_unknown_content does for a demo
+        warnings.warn(
+            f"{path}: {sorted(skipped)} not part of the GBTI layout (/Object/UserN/PositionM groups); "
+            "not converted",
+            stacklevel=2,
+        )
     return sorted(keys)
 
 

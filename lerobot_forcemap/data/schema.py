@@ -11,6 +11,8 @@ policy can build and check features cheaply.
 from __future__ import annotations
 
 import json
+import re
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -192,8 +194,9 @@ def validate_episode_arrays(
 ) -> int:
     """Vectorised check of a whole episode given as ``{key: (T, *shape)}``; returns T.
 
-    Same rules as :func:`validate_frame`; image/video features are ``(T, H, W, C)`` or ``(T, C, H, W)``.
-    The error names the key, the episode and the first bad frame.
+    Same rules as :func:`validate_frame` (LeRobot's automatic columns must be absent, even when
+    ``features`` lists them as a ``LeRobotDataset``'s do); image/video features are ``(T, H, W, C)``
+    or ``(T, C, H, W)``. The error names the key, the episode and the first bad frame.
     """
     where = _where(episode, None)
     images = [k for k, ft in features.items() if ft["dtype"] in ("image", "video")]
@@ -201,9 +204,12 @@ def validate_episode_arrays(
     missing = sorted(expected - set(arrays))
     if missing:
         raise ValueError(f"{where}: missing feature(s) {missing}")
-    unknown = sorted(set(arrays) - set(features))
+    # a LeRobotDataset's features list its automatic columns too; add_episode would drop them unseen
+    unknown = sorted((set(arrays) - set(features)) | (set(arrays) & set(LEROBOT_AUTO_KEYS)))
     if unknown:
-        raise ValueError(f"{where}: unknown key(s) {unknown} not in the dataset features")
+        auto = [k for k in unknown if k in LEROBOT_AUTO_KEYS]
+        hint = f" ({auto} are added by LeRobot itself)" if auto else ""
+        raise ValueError(f"{where}: unknown key(s) {unknown} not in the dataset features{hint}")
     n_frames: int | None = None
     for key in [k for k in features if k in expected]:  # features order: state first
         ft = features[key]
@@ -283,6 +289,18 @@ def add_episode(
 # ---- dataset card ------------------------------------------------------------------------------------
 
 
+_FEATURE_TABLE_HEAD = ("| key | dtype | shape | names | units |", "|---|---|---|---|---|")
+
+
+def _feature_row(key: str, ft: Mapping[str, Any], units: Mapping[str, str] | None) -> str:
+    """One row of the card's feature table (units: ``units``, else ``layout.UNITS``)."""
+    unit = {**layout.UNITS, **(units or {})}.get(key, "")
+    names = ft.get("names")
+    names_s = ", ".join(map(str, names)) if isinstance(names, list) else ""
+    shape = "×".join(map(str, ft.get("shape", ())))
+    return f"| `{key}` | {ft['dtype']} | {shape} | {names_s} | {unit} |"
+
+
 def card_markdown(
     *,
     title: str,
@@ -294,15 +312,10 @@ def card_markdown(
     extra: str | Mapping[str, Any] | None = None,
 ) -> str:
     """Markdown body of the dataset card: title, source, robot, a feature table with units, frames."""
-    units = {**layout.UNITS, **(units or {})}
     lines = [f"# {title}", "", f"**Source:** {source}", "", f"**Robot:** {robot}", ""]
     if features:
-        lines += ["## Features", "", "| key | dtype | shape | names | units |", "|---|---|---|---|---|"]
-        for key, ft in features.items():
-            names = ft.get("names")
-            names_s = ", ".join(map(str, names)) if isinstance(names, list) else ""
-            shape = "×".join(map(str, ft.get("shape", ())))
-            lines.append(f"| `{key}` | {ft['dtype']} | {shape} | {names_s} | {units.get(key, '')} |")
+        lines += ["## Features", "", *_FEATURE_TABLE_HEAD]
+        lines += [_feature_row(key, ft, units) for key, ft in features.items()]
         lines.append("")
     lines += [
         "## Frames and conventions",
@@ -369,23 +382,37 @@ def write_dataset_card(
         license=license,
         repo_id=repo_id,
     )
-    info = json.loads((root / "meta" / "info.json").read_text())
-    features = {k: v for k, v in info["features"].items() if k not in LEROBOT_AUTO_KEYS}
+    features = _card_features(root)
     description = card_markdown(
         title=title, source=source, robot=robot, features=features, units=units, frames=frames, extra=extra
     )
     card_tags = sorted({"forcemap", "force", "wrench", *(tags or ())})
-    (root / "meta" / "forcemap_card.json").write_text(
-        json.dumps(
-            {"dataset_description": description, "tags": card_tags, "license": license, "inputs": inputs},
-            indent=2,
-        )
-    )
+    return _write_card_files(root, description, card_tags, license, repo_id, inputs)
+
+
+def _card_features(root: Path) -> dict[str, dict[str, Any]]:
+    info = json.loads((root / "meta" / "info.json").read_text())
+    return {k: v for k, v in info["features"].items() if k not in LEROBOT_AUTO_KEYS}
+
+
+def _write_card_files(
+    root: Path,
+    description: str,
+    tags: list[str],
+    license: str | None,
+    repo_id: str | None,
+    inputs: dict[str, Any] | None,
+) -> Path:
+    """``meta/forcemap_card.json`` (``inputs`` only when known) and README.md from LeRobot's template."""
+    stored: dict[str, Any] = {"dataset_description": description, "tags": tags, "license": license}
+    if inputs is not None:
+        stored["inputs"] = inputs
+    (root / "meta" / "forcemap_card.json").write_text(json.dumps(stored, indent=2))
     from lerobot.datasets.io_utils import load_info  # lazy: heavy import
     from lerobot.datasets.utils import create_lerobot_dataset_card
 
     card = create_lerobot_dataset_card(
-        tags=card_tags,
+        tags=tags,
         dataset_info=load_info(root),
         license=license,
         repo_id=repo_id,
@@ -399,9 +426,45 @@ def write_dataset_card(
 def refresh_dataset_card(root: str | Path) -> Path | None:
     """Rebuild the card of :func:`write_dataset_card` from its stored arguments and the current
     ``meta/info.json`` (e.g. after ``forcemap segment`` added columns); ``None`` when the dataset has
-    no card written by this package (or one from before the arguments were stored)."""
-    path = Path(root) / "meta" / "forcemap_card.json"
+    no card written by this package.
+
+    A card from before the arguments were stored (the shipped datasets) keeps its description with the
+    feature table brought up to date: rows of the features it lists stay as they are, new features get
+    a row with their ``layout.UNITS``, removed ones lose theirs. A card with no such table is left as
+    it is, with a warning.
+    """
+    root = Path(root)
+    path = root / "meta" / "forcemap_card.json"
     if not path.is_file():
         return None
-    inputs = json.loads(path.read_text()).get("inputs")
-    return None if inputs is None else write_dataset_card(root, **inputs)
+    card = json.loads(path.read_text())
+    if card.get("inputs") is not None:
+        return write_dataset_card(root, **card["inputs"])
+    description = _with_feature_table(card.get("dataset_description"), _card_features(root))
+    if description is None:
+        warnings.warn(
+            f"{root}: dataset card not refreshed (README.md keeps its old feature table): {path} stores "
+            "neither the card's arguments ('inputs') nor a feature table in 'dataset_description'",
+            stacklevel=2,
+        )
+        return None
+    # such cards were written without a repo id (the sim recorder passes none)
+    return _write_card_files(root, description, card.get("tags") or [], card.get("license"), None, None)
+
+
+def _with_feature_table(description: Any, features: Mapping[str, Mapping[str, Any]]) -> str | None:
+    """``description`` (a :func:`card_markdown` text) with its feature table rebuilt for ``features``;
+    ``None`` when it has no such table."""
+    if not isinstance(description, str):
+        return None
+    lines = description.split("\n")
+    head = next((i for i in range(len(lines) - 1) if tuple(lines[i : i + 2]) == _FEATURE_TABLE_HEAD), None)
+    if head is None:
+        return None
+    end = head + 2
+    old: dict[str, str] = {}
+    while end < len(lines) and (m := re.match(r"\| `([^`]+)` \|", lines[end])):
+        old[m.group(1)] = lines[end]
+        end += 1
+    rows = [old.get(key) or _feature_row(key, ft, None) for key, ft in features.items()]
+    return "\n".join([*lines[: head + 2], *rows, *lines[end:]])

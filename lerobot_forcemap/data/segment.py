@@ -181,6 +181,12 @@ def segment_dataset(
         raise ValueError(
             f"{root}: no feature to segment on (need {layout.OBS_STATE}, {layout.OBS_FORCE}, ...)"
         )
+    # checked once here, not as every episode's error: a misspelt name is the flag's fault
+    available = sorted(stream_columns(features))
+    for flag, given in (("--weights", weights), ("--thresholds", thresholds)):
+        unknown = sorted(set(given or {}) - set(available))
+        if unknown:
+            raise ValueError(f"{flag}: unknown stream(s) {unknown}; this dataset has {available}")
     if not {layout.OBS_FORCE, layout.OBS_FINGER_FORCE} & set(features):
         warnings.warn(
             f"{root}: no force feature ({layout.OBS_FORCE} or {layout.OBS_FINGER_FORCE}); segmenting on "
@@ -191,6 +197,9 @@ def segment_dataset(
     ep_col = np.asarray(table["episode_index"])
     n_episodes = ds.meta.total_episodes
     chosen = list(range(n_episodes)) if episodes is None else [int(e) for e in episodes]
+    repeated = sorted({e for e in chosen if chosen.count(e) > 1})
+    if repeated:  # segmenting one twice would write its labels twice over
+        raise ValueError(f"--episodes: episode(s) {repeated} given more than once")
     bad = [e for e in chosen if not 0 <= e < n_episodes]
     if bad:
         raise ValueError(f"{root}: episode(s) {bad} not in the dataset (0..{n_episodes - 1})")
@@ -433,7 +442,11 @@ def _parse_pairs(items: Sequence[str] | None, what: str) -> dict[str, float]:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dataset", required=True, help="dataset root folder (written in place)")
-    parser.add_argument("--repo-id", default="local/forcemap")
+    parser.add_argument(
+        "--repo-id",
+        default="local/forcemap",
+        help="dataset id LeRobot opens the folder under (any string works locally; default local/forcemap)",
+    )
     parser.add_argument(
         "--weights",
         nargs="+",
@@ -444,13 +457,32 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--thresholds", nargs="+", metavar="NAME=V", help="keypoint thresholds (fractions of max)"
     )
-    parser.add_argument("--mode", choices=["product", "geometric", "linear"], default="geometric")
-    parser.add_argument("--changepoints", choices=["peaks", "sample"], default="peaks")
+    parser.add_argument(
+        "--mode",
+        choices=["product", "geometric", "linear"],
+        default="geometric",
+        help="how the streams' keypoint densities combine: geometric (default, weighted sum of logs), "
+        "product (of the streams with weight > 0; weights only select) or linear (weighted mean)",
+    )
+    parser.add_argument(
+        "--changepoints",
+        choices=["peaks", "sample"],
+        default="peaks",
+        help="peaks (default, deterministic: maxima of the combined density at least --window frames "
+        "apart) or sample (the paper: random draws from it, clustered; see --seed)",
+    )
     parser.add_argument("--window", type=int, default=64, help="jerk moving-average window, frames")
     parser.add_argument("--min-run", type=int, default=64, help="frames a run above threshold must last")
-    parser.add_argument("--grace", type=int, default=4)
+    parser.add_argument(
+        "--grace", type=int, default=4, help="frames a run may dip below threshold without ending (default 4)"
+    )
     parser.add_argument("--min-segment-length", type=int, default=None, help="frames (default window/2)")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="random seed of --changepoints sample (default 0; peaks ignores it)",
+    )
     parser.add_argument("--episodes", type=int, nargs="+", help="only these episodes (default all)")
     parser.add_argument("--style", choices=list(SUBTASK_STYLES), default="motion", help="subtask row style")
     parser.add_argument(

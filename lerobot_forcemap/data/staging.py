@@ -12,7 +12,8 @@ only after success::
     replace_dir(out, work)
 
 ``--overwrite`` replaces a LeRobot dataset (a folder with ``meta/info.json``) or an empty folder,
-never a folder of something else: a mistyped ``--out`` must not delete someone's files.
+never a folder of something else: a mistyped ``--out`` must not delete someone's files, nor the current
+folder (``--out .``), which would leave the shell in a deleted folder.
 """
 
 from __future__ import annotations
@@ -32,6 +33,12 @@ def check_output(out: str | Path, *, overwrite: bool) -> Path:
         raise ValueError(f"output {out} exists; pass overwrite=True (--overwrite) to replace it")
     if not out.is_dir():
         raise ValueError(f"output {out} is a file, not a dataset folder; not replacing it")
+    cwd = Path.cwd()
+    if cwd.is_relative_to(_absolute(out)):
+        raise ValueError(
+            f"output {out} is the current folder or holds it ({cwd}); replacing it would leave this shell in "
+            "a deleted folder: run from elsewhere or pick another --out"
+        )
     if not (out / "meta" / "info.json").is_file() and any(out.iterdir()):
         raise ValueError(
             f"output {out} is not a LeRobot dataset (no meta/info.json) and not empty; --overwrite only "
@@ -40,8 +47,16 @@ def check_output(out: str | Path, *, overwrite: bool) -> Path:
     return out
 
 
+def _absolute(out: str | Path) -> Path:
+    """``out`` without ``.``/``..`` parts, so that its name and parent are real (``Path("..").name`` is
+    ``..``, ``Path(".").name`` empty); a symlink stays itself (replacing it replaces the link)."""
+    out = Path(out)
+    return out.absolute() if out.is_symlink() else out.resolve()
+
+
 def partial_dir(out: Path) -> Path:
     """The (absent) work folder ``.<name>.partial`` beside ``out``; one left by a killed run is removed."""
+    out = _absolute(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     work = out.parent / f".{out.name}.partial"
     shutil.rmtree(work, ignore_errors=True)
@@ -50,6 +65,7 @@ def partial_dir(out: Path) -> Path:
 
 def replace_dir(out: Path, new: Path) -> None:
     """Move the finished dataset ``new`` to ``out``, replacing what is there."""
+    out = _absolute(out)
     if out.exists():
         old = out.parent / f".{out.name}.old"
         shutil.rmtree(old, ignore_errors=True)

@@ -106,6 +106,9 @@ def record_demonstrations(
 
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
+    # numpy's SeedSequence would refuse it only later, as "expected non-negative integer"
+    if seed < 0:
+        raise ValueError(f"--seed must be a non-negative integer, got {seed}")
     limit = max_attempts if max_attempts is not None else 3 * episodes
     if limit < episodes:
         raise ValueError(f"max_attempts ({limit}) must be >= episodes ({episodes})")
@@ -322,7 +325,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--image-size", type=int, default=128, help="camera image size in pixels (square)")
     parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     parser.add_argument(
-        "--max-attempts", type=int, default=None, help="give up after this many episodes (default 3x)"
+        "--max-attempts",
+        type=int,
+        default=None,
+        help="give up after this many attempts, failed demonstrations included (default 3 x --episodes)",
     )
     parser.add_argument(
         "--object", default=None, help="grasping tasks: the object (default: the task's demonstration object)"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import warnings
 
 import numpy as np
@@ -209,9 +210,10 @@ def test_bad_inputs_name_field_episode_and_frame(tmp_path):
         convert_recordings([good, bad], tmp_path / "exists", fps=20, progress=False, overwrite=True)
     assert sorted(p.relative_to(tmp_path) for p in (tmp_path / "exists").rglob("*")) == before
     assert not list(tmp_path.glob(".exists*"))
+    again = write_recorder_file(tmp_path / "again.h5", make_streams(n=100, seed=1))
     assert (
         convert_recordings(
-            [good, good], tmp_path / "exists", fps=20, progress=False, overwrite=True
+            [good, again], tmp_path / "exists", fps=20, progress=False, overwrite=True
         ).n_episodes
         == 2
     )
@@ -293,3 +295,83 @@ def test_recorder_content_problems_are_named(tmp_path):
         read_recording(good)
     with pytest.raises(ValueError, match="--gripper-full-scale must be a positive number, got nan"):
         convert_recordings([good], tmp_path / "o2", fps=20, progress=False, gripper_full_scale=float("nan"))
+
+
+def test_an_input_given_twice_is_refused(tmp_path, monkeypatch):
+    good = write_recorder_file(tmp_path / "press_0.h5", make_streams(n=100))
+    (tmp_path / "sub").mkdir()
+    monkeypatch.chdir(tmp_path / "sub")
+    for twice in ([good, good], [good, "../press_0.h5"]):
+        with pytest.raises(
+            ValueError,
+            match=rf"input file given more than once: {re.escape(str(good))} and {re.escape(str(twice[1]))} "
+            "are the same file",
+        ):
+            convert_recordings(twice, tmp_path / "out", fps=20, progress=False)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["press_0.h5", "sub"]
+
+
+def test_gbti_read_errors_name_episode_and_file(tmp_path):
+    import h5py
+
+    path = write_gbti_file(tmp_path / "g.h5", [("Cube", 1, 1), ("Cube", 1, 2)], n=100)
+    with h5py.File(path, "a") as f:
+        forces = f["Cube/User1/Position2/gripper_info/forces"][()]
+        forces[7] = np.nan
+        f["Cube/User1/Position2/gripper_info/forces"][...] = forces
+    with pytest.raises(
+        ValueError,
+        match=rf"^episode 1 \({re.escape(str(path))}:Cube/User1/Position2\): recording 'Cube/User1/Position2': "
+        r"'gripper_info/forces' is not finite \(NaN/inf\) at sample 7",
+    ):
+        convert_gbti(path, tmp_path / "out", fps=20, progress=False)
+    assert not (tmp_path / "out").exists()
+
+
+def test_joint_velocities_and_efforts_are_reported_as_not_converted(tmp_path):
+    full = write_recorder_file(tmp_path / "press_0.h5", make_streams(n=100))
+    lean = write_recorder_file(
+        tmp_path / "press_1.h5",
+        make_streams(n=100, seed=1),
+        skip=("joint_state_info/joint_velocities", "joint_state_info/joint_effort"),
+    )
+    with pytest.warns(
+        UserWarning,
+        match=r"\['joint_state_info/joint_effort', 'joint_state_info/joint_velocities'\] recorded in 1 of 2 "
+        r"episode\(s\): not converted",
+    ):
+        convert_recordings([full, lean], tmp_path / "ds", fps=20, progress=False)
+    episodes = json.loads((tmp_path / "ds" / SOURCES_FILE).read_text())["episodes"]
+    assert episodes[0]["not_converted"] == [
+        "joint_state_info/joint_velocities",
+        "joint_state_info/joint_effort",
+    ]
+    assert episodes[1]["not_converted"] == []
+    card = (tmp_path / "ds" / "README.md").read_text()
+    assert "**Not converted:** `joint_state_info/joint_effort`, `joint_state_info/joint_velocities`" in card
+    # nothing to say when the recordings hold only what is converted
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        convert_recordings([lean], tmp_path / "lean", fps=20, progress=False)
+    assert not [w for w in caught if "not converted" in str(w.message)]
+    assert "Not converted" not in (tmp_path / "lean" / "README.md").read_text()
+
+
+def test_out_as_the_current_folder_is_refused_up_front(tmp_path, monkeypatch):
+    good = write_recorder_file(tmp_path / "press_0.h5", make_streams(n=100))
+    (tmp_path / "empty").mkdir()
+    monkeypatch.chdir(tmp_path / "empty")
+    with pytest.raises(ValueError, match=r"output \. is the current folder or holds it"):
+        forcemap_main(["convert", str(good), "--out", ".", "--overwrite"])
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["empty", "press_0.h5"]  # no ..partial left
+
+
+def test_lowpass_help_says_when_auto_filters(capsys):
+    with pytest.raises(SystemExit):
+        forcemap_main(["convert", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert (
+        "'auto' (default): 0.4 x --fps when that is below 0.45 x the recorded wrench's sample rate, else no filter"
+        in text
+    )
+    assert resolve_lowpass_hz("auto", 600, 500.0) is None and resolve_lowpass_hz("auto", 500, 500.0) == 200.0

@@ -163,3 +163,43 @@ def test_joint_order_is_kinematic(shared_data, fname):
     idx = np.linspace(0, len(rec.joint_time) - 1, 15).astype(int)
     fk = np.array([_ur5e_flange_position(rec.joint_positions[i]) for i in idx])
     assert np.abs(fk - rec.positions[idx]).max() < 0.002
+
+
+def test_a_gripper_group_with_both_readings_is_refused(tmp_path):
+    """gripper_position (lab recorder) and gripper_vals (GBTI) in one file: no documented precedence, and
+    no real file has both, so neither is picked silently."""
+    path = write_recorder_file(tmp_path / "both.h5", make_streams(n=30))
+    with h5py.File(path, "a") as f:
+        f["gripper_info"].create_dataset("gripper_vals", data=np.full((30, 1), 10.0))
+    with pytest.raises(
+        ValueError,
+        match=r"recording 'both': 'gripper_info' holds both 'gripper_position' .* and 'gripper_vals'",
+    ):
+        read_recording(path)
+
+
+def test_known_datasets_that_are_not_converted_are_listed(tmp_path):
+    rec = read_recording(write_recorder_file(tmp_path / "demo.h5", make_streams(n=30)))
+    assert rec.not_converted == ("joint_state_info/joint_velocities", "joint_state_info/joint_effort")
+    path = write_recorder_file(
+        tmp_path / "lean.h5", make_streams(n=30), skip=("joint_state_info/joint_effort",)
+    )
+    assert read_recording(path).not_converted == ("joint_state_info/joint_velocities",)
+
+
+def test_gbti_content_beside_the_demos_is_named(tmp_path):
+    path = write_gbti_file(tmp_path / "g.h5", [("Cube", 1, 1)], n=30)
+    with h5py.File(path, "a") as f:
+        f.create_dataset("notes", data=np.zeros(3))
+        f.create_dataset("Cube/calibration", data=np.zeros(3))
+        f.create_group("Bowl").create_dataset("User1", data=np.zeros(3))
+    with pytest.warns(
+        UserWarning,
+        match=r"g\.h5: \['Bowl/User1', 'Cube/calibration', 'notes'\] not part of the GBTI layout .*; "
+        "not converted",
+    ):
+        assert gbti_keys(path) == [GbtiKey("Cube", 1, 1)]
+    with h5py.File(path, "a") as f:
+        f.copy(f["Cube/User1/Position1"], f["Cube/User1"], name="PositionX")
+    with pytest.raises(ValueError, match=r"g\.h5: not a GBTI key .*'Cube/User1/PositionX'"):
+        gbti_keys(path)

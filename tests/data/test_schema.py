@@ -153,3 +153,27 @@ def test_add_episode_with_images_round_trip(tmp_path):
     assert int(item[layout.SEGMENT_INDEX]) == 1
     img = (item["observation.images.wrist"].numpy() * 255).round().astype(np.uint8)  # CHW float in [0, 1]
     np.testing.assert_array_equal(img.transpose(1, 2, 0), arrays["observation.images.wrist"][4])
+
+
+def test_add_episode_refuses_lerobots_own_columns(tmp_path):
+    """A LeRobotDataset's features list timestamp, frame_index, ...: given as arrays they would be dropped
+    (LeRobot writes its own), so they are refused as add_frame refuses them."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    from lerobot_forcemap.data.schema import LEROBOT_AUTO_KEYS, add_episode
+
+    f = features()
+    ds = LeRobotDataset.create("local/t", fps=10, features=f, root=tmp_path / "ds", use_videos=False)
+    assert set(LEROBOT_AUTO_KEYS) <= set(ds.features)
+    n = 5
+    arrays = {k: np.zeros((n, *ft["shape"]), np.float32) for k, ft in f.items()}
+    for key in LEROBOT_AUTO_KEYS:
+        bad = dict(arrays, **{key: np.arange(n) * 7.0})
+        with pytest.raises(
+            ValueError,
+            match=rf"episode 2: unknown key\(s\) \['{key}'\] .*\(\['{key}'\] are added by LeRobot itself\)",
+        ):
+            add_episode(ds, bad, "t", episode=2)
+    assert ds.num_frames == 0  # nothing written
+    assert add_episode(ds, arrays, "t", episode=0) == n
+    ds.finalize()

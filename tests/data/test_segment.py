@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -117,7 +118,7 @@ def test_bad_input(dataset):
         write_segments(dataset, {0: np.r_[np.zeros(40, int), np.full(110, 2)]})
     with pytest.raises(ValueError, match=r"episode 1: 10 labels for 170 frames"):
         write_segments(dataset, {1: np.zeros(10, int)})
-    with pytest.raises(ValueError, match=r"weight for unknown stream\(s\) \['force'\]"):
+    with pytest.raises(ValueError, match=r"^--weights: unknown stream\(s\) \['force'\]"):
         segment_dataset(dataset, weights={"force": 1.0}, config=CONFIG, progress=False)
     with pytest.raises(ValueError, match=r"episode\(s\) \[7\] not in the dataset"):
         segment_dataset(dataset, episodes=[7], config=CONFIG, progress=False)
@@ -261,3 +262,61 @@ def test_a_dataset_without_force_is_segmented_with_a_warning(tmp_path):
         UserWarning, match=r"no force feature \(observation.force or observation.finger_force\)"
     ):
         segment_dataset(tmp_path / "ds", config=CONFIG, write=False, progress=False)
+
+
+def test_flag_mistakes_are_named_once_as_the_flags(dataset):
+    """Not as the first episode's error: the stream names are checked before any episode, and an episode
+    listed twice is refused rather than segmented twice."""
+    before = (dataset / "meta" / "info.json").read_text()
+    for flag in ("--weights", "--thresholds"):
+        with pytest.raises(
+            ValueError,
+            match=rf"^{flag}: unknown stream\(s\) \['bogus'\]; this dataset has "
+            r"\['gripper', 'joints', 'position', 'wrist_force'\]$",
+        ):
+            forcemap_main(["segment", "--dataset", str(dataset), flag, "bogus=0.5"])
+    with pytest.raises(ValueError, match=r"^--episodes: episode\(s\) \[0\] given more than once$"):
+        forcemap_main(["segment", "--dataset", str(dataset), "--episodes", "0", "1", "0"])
+    assert (dataset / "meta" / "info.json").read_text() == before
+
+
+def test_every_option_has_help(capsys):
+    with pytest.raises(SystemExit):
+        forcemap_main(["segment", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for option in ("--repo-id", "--mode", "--changepoints", "--grace", "--seed"):
+        assert f"{option} " in text
+    assert "random seed of --changepoints sample (default 0; peaks ignores it)" in text
+    assert "frames a run may dip below threshold without ending (default 4)" in text
+    assert "geometric (default, weighted sum of logs)" in text
+
+
+def test_the_card_of_a_shipped_dataset_gains_the_new_columns(tmp_path):
+    """The shipped datasets' cards were written before the card's arguments were stored: their feature
+    table is rebuilt in the stored description, the rest kept as it was."""
+    import shutil
+
+    shipped = Path(__file__).resolve().parents[2] / "datasets" / "press"
+    root = tmp_path / "press"
+    shutil.copytree(shipped, root)
+    assert "inputs" not in json.loads((root / "meta" / "forcemap_card.json").read_text())
+    old = (root / "README.md").read_text()
+    segment_dataset(root, config=SegmentationConfig(window=8, min_run=8), progress=False)
+    card = (root / "README.md").read_text()
+    assert f"| `{layout.SEGMENT_INDEX}` | int64 | 1 |  | motion segment of the frame" in card
+    assert "| `language_persistent` | language |" in card
+    described = json.loads((root / "meta" / "forcemap_card.json").read_text())["dataset_description"]
+    assert f"`{layout.SEGMENT_INDEX}`" in described  # what push_dataset sends to the Hub
+    old_rows = [line for line in old.splitlines() if line.startswith("| `")]
+    new_rows = [line for line in card.splitlines() if line.startswith("| `")]
+    assert new_rows[: len(old_rows)] == old_rows and len(new_rows) == len(old_rows) + 3
+    description = old.split("## Dataset Description")[1].split("## Dataset Structure")[0]
+    assert description.split("## Frames and conventions")[1] in card  # notes kept word for word
+
+
+def test_a_card_that_cannot_be_refreshed_says_so(dataset):
+    card = dataset / "meta" / "forcemap_card.json"
+    card.write_text(json.dumps({"dataset_description": "# hand-written", "tags": ["forcemap"]}))
+    with pytest.warns(UserWarning, match=r"dataset card not refreshed .* neither the card's arguments"):
+        write_segments(dataset, {0: np.zeros(150, int)})
+    assert json.loads(card.read_text())["dataset_description"] == "# hand-written"

@@ -1,5 +1,7 @@
 """Where ``forcemap convert`` / ``record`` may write: ``--overwrite`` replaces datasets, nothing else."""
 
+from pathlib import Path
+
 import pytest
 
 from lerobot_forcemap.data.staging import check_output, partial_dir, replace_dir
@@ -33,3 +35,30 @@ def test_replace_dir_swaps_in_the_finished_folder(tmp_path):
     replace_dir(out, work)
     assert [p.name for p in out.iterdir()] == ["new.txt"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ds"]
+
+
+def test_the_current_folder_is_not_replaced(tmp_path, monkeypatch):
+    """``--out .`` (or a folder holding the current one) would be renamed away under the shell: refused
+    before any work, whether empty or a dataset."""
+    (tmp_path / "ds" / "meta").mkdir(parents=True)
+    (tmp_path / "ds" / "meta" / "info.json").write_text("{}")
+    monkeypatch.chdir(tmp_path / "ds" / "meta")
+    for out in (Path("."), Path(".."), tmp_path):
+        with pytest.raises(ValueError, match=r"is the current folder or holds it"):
+            check_output(out, overwrite=True)
+    with pytest.raises(ValueError, match="exists; pass overwrite"):
+        check_output(".", overwrite=False)
+
+
+def test_relative_paths_with_dots_stage_beside_the_real_folder(tmp_path, monkeypatch):
+    """``Path("a/x/..").name`` is ``..``: staging works on the folder it names, ``a``."""
+    (tmp_path / "a" / "x").mkdir(parents=True)
+    monkeypatch.chdir(tmp_path)
+    out = Path("a/x/..")
+    work = partial_dir(out)
+    assert work == tmp_path / ".a.partial"
+    work.mkdir()
+    (work / "new.txt").write_text("new")
+    replace_dir(out, work)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a"]
+    assert [p.name for p in (tmp_path / "a").iterdir()] == ["new.txt"]

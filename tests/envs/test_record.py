@@ -163,3 +163,19 @@ def test_recording_with_images_decodes_the_camera_frames(tmp_path):
     assert tuple(first.shape) == (3, 48, 48) and 0.0 <= float(first.min()) and float(first.max()) <= 1.0
     assert float(first.std()) > 0.05  # a rendered scene, not a constant frame
     assert float((first - last).abs().mean()) > 1e-3  # the arm moved between the first and last frame
+
+
+def test_a_negative_seed_is_named_as_the_flag_before_any_work(tmp_path, capsys):
+    from lerobot_forcemap.cli import main
+
+    out = tmp_path / "neg"
+    with pytest.raises(ValueError, match=r"^--seed must be a non-negative integer, got -1$"):
+        main(["record", "--task", "press", "--episodes", "1", "--seed", "-1", "--out", str(out)])
+    assert not out.exists() and not list(tmp_path.iterdir())
+    with pytest.raises(SystemExit):
+        main(["record", "--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert (
+        "give up after this many attempts, failed demonstrations included (default 3 x --episodes)"
+        in help_text
+    )
