@@ -178,6 +178,8 @@ def rollout(
 
     base = env.unwrapped
     obs, info = env.reset(seed=seed)
+    # a stochastic policy (Diffusion's sampling noise) repeats its episode; forcemap draws nothing
+    torch.manual_seed(seed)
     policy.reset()
     steps = 0
     rows: list[list[float]] = []

@@ -287,6 +287,53 @@ def settings_to_cli(settings: dict[str, Any]) -> list[str]:
     return argv
 
 
+def eval_command(
+    checkpoint: Path,
+    task: str,
+    out_dir: Path,
+    *,
+    episodes: int,
+    seed: int,
+    extras: Sequence[str],
+    python: str = "python",
+) -> list[str]:
+    """``lerobot-eval`` argv (as ``python -m lerobot.scripts.lerobot_eval``) on seeds seed .. seed+episodes-1
+    (one env at a time: LeRobot seeds batch ``b`` with ``seed + b*batch_size ...``)."""
+    return [
+        python,
+        "-m",
+        "lerobot.scripts.lerobot_eval",
+        f"--policy.path={checkpoint}",
+        "--policy.device=cpu",
+        f"--env.type=forcemap_{task}",
+        f"--env.env_state_extras={','.join(extras)}",
+        f"--eval.n_episodes={episodes}",
+        "--eval.batch_size=1",
+        f"--seed={seed}",
+        f"--output_dir={out_dir}",
+    ]
+
+
+def read_lerobot_eval(out_dir: Path, seeds: Sequence[int]) -> dict[str, Any]:
+    """Success per seed from ``lerobot-eval``'s ``eval_info.json`` in ``out_dir``."""
+    from lerobot_forcemap.jsonfile import read_json_object
+
+    path = Path(out_dir) / "eval_info.json"
+    info = read_json_object(path)
+    try:
+        successes = [bool(s) for task in info["per_task"] for s in task["metrics"]["successes"]]
+    except (KeyError, TypeError) as err:
+        raise ValueError(f"{path}: no per_task[*].metrics.successes ({err!r})") from err
+    if len(successes) != len(seeds):
+        raise ValueError(f"{path}: {len(successes)} episodes, expected {len(seeds)} (seeds {list(seeds)})")
+    return {
+        "n": len(successes),
+        "seeds": [int(s) for s in seeds],
+        "success_rate": float(np.mean(successes)),
+        "successes": successes,
+    }
+
+
 # ---- results ----------------------------------------------------------------------------------------------
 
 
@@ -305,7 +352,9 @@ def force_inputs_text(extras: Sequence[str] = DEFAULT_EXTRAS) -> str:
 def _mean_std(values: np.ndarray) -> dict[str, Any]:
     from lerobot_forcemap.experiments.evaluate import to_json
 
-    return {"mean": to_json(values.mean(axis=0)), "std": to_json(values.std(axis=0))}
+    # sample std (ddof 1), as the experiments' tables report every other spread
+    std = values.std(axis=0, ddof=1) if len(values) > 1 else np.zeros_like(values[0])
+    return {"mean": to_json(values.mean(axis=0)), "std": to_json(std)}
 
 
 def result_document(
@@ -319,10 +368,12 @@ def result_document(
     eval_wall_time_s: float,
     config: dict[str, Any],
     force_inputs: str,
+    lerobot_eval: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The ``results/learned/<task>__<method>.json`` document (schema in scripts/experiments/learned_baselines.py).
 
-    Spreads are population std over episodes (``numpy.std``)."""
+    Spreads are sample std over episodes (ddof 1). ``lerobot_eval``: ``read_lerobot_eval``'s record of
+    the same checkpoint on the same seeds, when ``lerobot-eval`` was run."""
     from lerobot_forcemap.experiments.evaluate import to_json
 
     if not records:
@@ -350,6 +401,10 @@ def result_document(
         "train_steps": int(train_steps),
         "train_wall_time_s": float(train_wall_time_s),
         "eval_wall_time_s": float(eval_wall_time_s),
+        "wall_time_s": float(
+            train_wall_time_s + eval_wall_time_s + ((lerobot_eval or {}).get("wall_time_s") or 0.0)
+        ),
+        "lerobot_eval": lerobot_eval,
         "config": config,
         "force_inputs": force_inputs,
         "episodes": list(records),

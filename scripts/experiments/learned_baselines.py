@@ -10,15 +10,19 @@ Per task: ``datasets/<task>`` -> derived dataset ``<work>/datasets/<task>`` whos
 Diffusion, see ``lerobot_forcemap/experiments/learned.py``). Per task x method: ``lerobot-train``
 (subprocess, checkpoints under ``<work>/<task>__<method>/``, not committed), then ``evaluate_policy``
 with the same env processor (``--env.env_state_extras=ee_pose,force`` in ``lerobot-eval`` terms) on
-episodes ``seed .. seed + episodes - 1`` (default 1000..1019), then one JSON per task x method:
+episodes ``seed .. seed + episodes - 1`` (default 1000..1019; torch seeded per episode, so Diffusion's
+sampling noise is reproducible) for the forces LeRobot does not record, then ``lerobot-eval`` itself on
+the same seeds (its success per seed in ``lerobot_eval``), then one JSON per task x method:
 
     results/learned/<task>__<method>.json
     {"task", "method", "n", "seeds", "success_rate", "protective_stops",
      "max_contact_force": {"mean", "std"}, "mean_contact_force": {"mean", "std"},
      "max_contact_force_xyz": {"mean": [3], "std": [3]}, "mean_contact_force_xyz": {"mean": [3], "std": [3]},
-     "train_steps", "train_wall_time_s", "eval_wall_time_s", "config", "force_inputs", "episodes": [...]}
+     "train_steps", "train_wall_time_s", "eval_wall_time_s", "wall_time_s" (train + both evaluations),
+     "lerobot_eval": {"n", "seeds", "success_rate", "successes", "wall_time_s", "command"},
+     "config", "force_inputs", "episodes": [...]}
 
-(std: population std over episodes.) Existing JSONs are skipped unless ``--force``. ``--steps``
+(std: sample std over episodes, ddof 1.) Existing JSONs are skipped unless ``--force``. ``--steps``
 and ``--batch-size`` take one number for every method or ``method=N`` pairs.
 
 Budgets (defaults): ACT 4000 steps x batch 8, Diffusion 1500 steps x batch 64, the same for every
@@ -154,6 +158,9 @@ def run_one(
     t0 = time.perf_counter()
     records = evaluate_policy(ckpt, task, episodes, seed, env_state_extras=",".join(extras), progress=True)
     eval_wall = time.perf_counter() - t0
+    lerobot_eval = run_lerobot_eval(
+        ckpt, task, run_dir / "lerobot_eval", episodes=episodes, seed=seed, extras=extras
+    )
     train_cfg = json.loads((ckpt / "train_config.json").read_text())
     config = {
         "policy": {k: v for k, v in train_cfg["policy"].items() if k in cfg or k in _KEY_POLICY_FIELDS},
@@ -183,7 +190,34 @@ def run_one(
         eval_wall_time_s=eval_wall,
         config=config,
         force_inputs=force_inputs_text(extras),
+        lerobot_eval=lerobot_eval,
     )
+
+
+def run_lerobot_eval(
+    ckpt: Path, task: str, out_dir: Path, *, episodes: int, seed: int, extras: tuple[str, ...]
+) -> dict[str, Any]:
+    """``lerobot-eval`` of the checkpoint on the same seeds (success only: LeRobot records no forces);
+    its log goes to ``out_dir``.log. Raises RuntimeError with the log's tail on a non-zero exit."""
+    from lerobot_forcemap.experiments.learned import eval_command, read_lerobot_eval
+
+    if out_dir.exists():
+        shutil.rmtree(out_dir)
+    argv = eval_command(
+        ckpt, task, out_dir, episodes=episodes, seed=seed, extras=extras, python=sys.executable
+    )
+    log_path = out_dir.with_suffix(".log")
+    print(f"lerobot-eval {task}: {episodes} episodes (log {log_path})", flush=True)
+    t0 = time.perf_counter()
+    with open(log_path, "w") as log:
+        rc = subprocess.run(argv, stdout=log, stderr=subprocess.STDOUT, cwd=REPO).returncode
+    wall = time.perf_counter() - t0
+    if rc != 0:
+        raise RuntimeError(
+            f"lerobot-eval failed (exit {rc}); log {log_path}:\n{log_path.read_text()[-3000:]}"
+        )
+    result = read_lerobot_eval(out_dir, [seed + i for i in range(episodes)])
+    return {**result, "wall_time_s": wall, "command": " ".join(argv[1:])}
 
 
 _KEY_POLICY_FIELDS = {"type", "n_obs_steps", "input_features", "output_features", "temporal_ensemble_coeff"}

@@ -253,14 +253,16 @@ def test_result_document_schema_and_numbers():
     assert set(doc) == {
         "task", "method", "n", "seeds", "success_rate", "protective_stops", "max_contact_force",
         "mean_contact_force", "max_contact_force_xyz", "mean_contact_force_xyz", "train_steps",
-        "train_wall_time_s", "eval_wall_time_s", "config", "force_inputs", "episodes",
+        "train_wall_time_s", "eval_wall_time_s", "wall_time_s", "lerobot_eval", "config", "force_inputs",
+        "episodes",
     }  # fmt: skip
     assert doc["n"] == 3 and doc["seeds"] == [1000, 1001, 1002]
     assert doc["success_rate"] == pytest.approx(2 / 3) and doc["protective_stops"] == 1
     assert doc["max_contact_force"] == {
         "mean": pytest.approx(20.0),
-        "std": pytest.approx(np.std([10, 30, 20])),
+        "std": pytest.approx(np.std([10, 30, 20], ddof=1)),
     }
+    assert doc["wall_time_s"] == pytest.approx(2.0) and doc["lerobot_eval"] is None
     assert doc["mean_contact_force_xyz"]["mean"] == pytest.approx([1.5, 0.0, 3.0])
     assert len(doc["max_contact_force_xyz"]["std"]) == 3
     json.dumps(doc)

@@ -6,10 +6,6 @@ from __future__ import annotations
 
 import importlib.util
 import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
 
@@ -20,7 +16,8 @@ pytestmark = pytest.mark.slow
 KEYS = {
     "task", "method", "n", "seeds", "success_rate", "protective_stops", "max_contact_force",
     "mean_contact_force", "max_contact_force_xyz", "mean_contact_force_xyz", "train_steps",
-    "train_wall_time_s", "eval_wall_time_s", "config", "force_inputs", "episodes",
+    "train_wall_time_s", "eval_wall_time_s", "wall_time_s", "lerobot_eval", "config", "force_inputs",
+    "episodes",
 }  # fmt: skip
 
 
@@ -74,24 +71,37 @@ def test_checkpoint_needs_the_env_state_extras(smoke_run):
         evaluate_policy(ckpt, "press", 1, 0, progress=False)
 
 
-def test_lerobot_eval_with_env_state_extras(smoke_run, tmp_path):
+def test_lerobot_eval_runs_on_the_same_seeds(smoke_run):
+    """The script runs lerobot-eval itself on the checkpoint, through --env.env_state_extras; for the
+    deterministic ACT it agrees with the project's rollout episode by episode."""
+    out, work, methods = smoke_run
+    for method in methods:
+        doc = json.loads((out / f"press__{method}.json").read_text())
+        ran = doc["lerobot_eval"]
+        assert ran["n"] == 2 and ran["seeds"] == [1000, 1001] and len(ran["successes"]) == 2
+        assert "--env.env_state_extras=ee_pose,force" in ran["command"] and "--seed=1000" in ran["command"]
+        assert doc["wall_time_s"] == pytest.approx(
+            doc["train_wall_time_s"] + doc["eval_wall_time_s"] + ran["wall_time_s"]
+        )
+        info = json.loads((work / f"press__{method}" / "lerobot_eval" / "eval_info.json").read_text())
+        assert info["overall"]["n_episodes"] == 2
+    act = json.loads((out / "press__act.json").read_text())
+    assert act["lerobot_eval"]["successes"] == [e["success"] for e in act["episodes"]]
+
+
+@pytest.mark.skipif(not importlib.util.find_spec("diffusers"), reason="Diffusion needs diffusers")
+def test_a_diffusion_episode_repeats_with_its_seed(smoke_run):
+    """torch is seeded per episode: Diffusion's sampling noise no longer varies between runs."""
+    from lerobot_forcemap.experiments.evaluate import evaluate_policy
+
     _, work, _ = smoke_run
-    ckpt = work / "press__act" / "train" / "checkpoints" / "last" / "pretrained_model"
-    cmd = [
-        str(Path(sys.executable).parent / "lerobot-eval"),
-        f"--policy.path={ckpt}",
-        "--env.type=forcemap_press",
-        "--env.env_state_extras=ee_pose,force",
-        "--eval.n_episodes=1",
-        "--eval.batch_size=1",
-        "--policy.device=cpu",
-        f"--output_dir={tmp_path / 'eval'}",
+    ckpt = work / "press__diffusion" / "train" / "checkpoints" / "last" / "pretrained_model"
+    runs = [
+        evaluate_policy(ckpt, "press", 1, 1000, env_state_extras="ee_pose,force", progress=False)[0]
+        for _ in range(2)
     ]
-    env = {**os.environ, "HF_HUB_OFFLINE": "1"}
-    proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    info = json.loads((tmp_path / "eval" / "eval_info.json").read_text())
-    assert info["overall"]["n_episodes"] == 1
+    assert runs[0]["max_contact_force"] == runs[1]["max_contact_force"]
+    assert runs[0]["steps"] == runs[1]["steps"]
 
 
 def test_forcemap_eval_cli_with_env_state_extras(smoke_run, tmp_path):
