@@ -611,8 +611,8 @@ def _indexed(item: tuple[int, tuple[Job, str, bool]]) -> tuple[int, dict[str, An
 # ---- statistics ----------------------------------------------------------------------------------------------
 
 
-def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
-    """Wilson score 95 % interval of a success rate (k of n); (0, 1) when n = 0."""
+def wilson_interval(successes: float, n: int, z: float = 1.959964) -> tuple[float, float]:
+    """Wilson score 95 % interval of a success rate (k of n, k may be a sum of rates); (0, 1) when n = 0."""
     if n <= 0:
         return 0.0, 1.0
     p = successes / n
@@ -640,19 +640,41 @@ def _stat(values: Array) -> dict[str, Any]:
     return to_json({"mean": mean, "std": std, "ci95": half, "min": v.min(axis=0), "max": v.max(axis=0)})
 
 
+def success_interval(records: Sequence[Mapping[str, Any]]) -> tuple[tuple[float, float], str, int]:
+    """Wilson 95 % interval of the success rate, its unit and the number of units.
+
+    Episodes of one demonstration's policy are not independent (it re-anchors to the object, so its
+    outcome hardly changes with the seed): when a demonstration ran several episodes, the unit is
+    the demonstration, with its success rate over its episodes (Wilson on the sum of the rates out of
+    the number of demonstrations). Otherwise each episode is a unit.
+    """
+    demos = [r.get("demo") for r in records]
+    if all(d is not None for d in demos) and len(set(demos)) < len(records):
+        by_demo: dict[Any, list[bool]] = {}
+        for d, r in zip(demos, records, strict=True):
+            by_demo.setdefault(d, []).append(bool(r["success"]))
+        rates = [float(np.mean(v)) for v in by_demo.values()]
+        return wilson_interval(sum(rates), len(rates)), "demonstration", len(rates)
+    k = sum(bool(r["success"]) for r in records)
+    return wilson_interval(k, len(records)), "episode", len(records)
+
+
 def summarize_records(records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
-    """n, seeds, success rate (+ Wilson 95 % interval), protective stops, and per force figure
-    ``{mean, std (ddof 1), ci95 (half-width, t), min, max}`` over episodes (per axis / finger for vectors)."""
+    """n, seeds, success rate (+ Wilson 95 % interval, see :func:`success_interval`), protective stops,
+    and per force figure ``{mean, std (ddof 1), ci95 (half-width, t), min, max}`` over episodes (per
+    axis / finger for vectors)."""
     if not records:
         return {"n": 0}
     n = len(records)
     k = int(sum(bool(r["success"]) for r in records))
-    lo, hi = wilson_interval(k, n)
+    (lo, hi), unit, n_units = success_interval(records)
     out: dict[str, Any] = {
         "n": n,
         "seeds": sorted({int(r["seed"]) for r in records if r.get("seed") is not None}),
         "success_rate": k / n,
         "success_ci95": [lo, hi],
+        "success_ci95_unit": unit,
+        "success_ci95_n": n_units,
         "protective_stops": int(sum(bool(r.get("protective_stop")) for r in records)),
     }
     for key in (*FORCE_KEYS, *FINGER_KEYS):

@@ -204,9 +204,19 @@ def peg_section(doc, cells) -> list[str]:
     o = np.concatenate([ours["max_contact_force_xyz"]["mean"], ours["mean_contact_force_xyz"]["mean"]])
     won = [n for n, a, b in zip(names, o, h, strict=True) if a < b]
     lost = [f"{n} ({a:.2f} vs {b:.2f} N)" for n, a, b in zip(names, o, h, strict=True) if a >= b]
+    gap, rel = h - o, 100.0 * (o / np.where(h > 0, h, np.nan) - 1.0)
+    big, most = int(np.argmax(gap)), int(np.nanargmin(rel))
+    demo = _rec(doc, experiment="peg", method="demonstration")
+    z_demo = (
+        f"; here ours' Z max is {o[2]:.2f} N against the demonstrations' {demo['max_contact_force_xyz']['mean'][2]:.2f} N"
+        if demo and "max_contact_force_xyz" in demo
+        else ""
+    )
     out.append(
         f"- Ours is below hybrid control on {len(won)} of 6 numbers ({', '.join(won)}); it loses on {', '.join(lost) or 'none'}. "
-        f"Unlike the paper, Z max is ours' clearest win ({o[2]:.2f} vs {h[2]:.2f} N): the force points lift the path where the "
+        f"Its largest absolute win is {names[big]} ({o[big]:.2f} vs {h[big]:.2f} N), its largest relative one {names[most]} "
+        f"({rel[most]:+.0f}%). In the paper, too, Z max was ours' largest absolute win over control (36.55 vs 44.01 N), but "
+        f"it stayed above the demonstration's (24.82 N){z_demo}: the force points lift the path where the "
         "demonstrator bumped the peg top (the demonstrator misjudges the peg by 2–4 mm, like the paper's vision error), so the "
         "reproduction touches the dome lightly, while hybrid control replays the bump and can only react after the threshold "
         "is crossed (the impedance lag at 3–4 cm/s already exceeds it)."

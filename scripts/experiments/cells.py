@@ -154,4 +154,7 @@ def demonstration_record(experiment: str, task: str, demos: tuple[int, ...]) -> 
         "design": "recorded",
         "demos": [d["episode"] for d in recs],
         **summarize_records(recs),
+        # the same keys as every other record: recorded with the dataset, not run by this pipeline
+        "failures": dict(Counter(d.get("termination_reason") or "failed" for d in recs if not d["success"])),
+        "wall_time_s": None,
     }

@@ -136,6 +136,7 @@ def _run(settings: Settings, stages: tuple[str, ...]) -> dict:
     for c in cells:
         rec = aggregate(c, s.tune_demos)
         rec["metric_means"] = report.metric_means(c)
+        rec["metric_stds"] = report.metric_stds(c)
         if c.experiment == "grasp":
             rec["seen"] = c.object == grasping.GRASP_TASKS[c.task][0]
         records.append(rec)

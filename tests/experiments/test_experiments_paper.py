@@ -63,6 +63,25 @@ def test_summarize_records_statistics():
     assert summarize_records([]) == {"n": 0}
 
 
+def test_the_success_interval_counts_demonstrations_when_they_repeat():
+    """20 seeds of one demonstration's policy share its outcome: 10 demonstrations x 20 seeds is 10
+    units, not 200 (the interval of 8/10, not of 160/200)."""
+    recs = [_rec(s, d, 1.0, 1.0, ok=d < 8) for d in range(10) for s in range(20)]
+    s = summarize_records(recs)
+    assert s["n"] == 200 and s["success_rate"] == pytest.approx(0.8)
+    assert s["success_ci95_unit"] == "demonstration" and s["success_ci95_n"] == 10
+    assert s["success_ci95"] == pytest.approx(list(wilson_interval(8, 10)))
+    assert s["success_ci95"][0] == pytest.approx(0.4902, abs=1e-4)  # [49, 94] %, not [74, 85] %
+    # one episode per demonstration (or no demonstration): each episode is a unit
+    single = summarize_records([_rec(s, s, 1.0, 1.0, ok=s < 16) for s in range(20)])
+    assert single["success_ci95_unit"] == "episode" and single["success_ci95"] == pytest.approx(
+        list(wilson_interval(16, 20))
+    )
+    # a demonstration whose seeds disagree counts with its rate
+    mixed = summarize_records([_rec(0, 0, 1.0, 1.0), _rec(1, 0, 1.0, 1.0, ok=False), _rec(2, 1, 1.0, 1.0)])
+    assert mixed["success_ci95"] == pytest.approx(list(wilson_interval(1.5, 2)))
+
+
 def test_demo_change_is_per_demonstration():
     demos = [{"episode": 0, "max_contact_force": 20.0}, {"episode": 1, "max_contact_force": 40.0}]
     recs = [_rec(1, 0, 10.0, 1.0), _rec(2, 0, 12.0, 1.0), _rec(3, 1, 30.0, 1.0)]

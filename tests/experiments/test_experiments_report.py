@@ -56,6 +56,7 @@ def test_learned_records_merge_done_and_pending(tmp_path):
     act = next(r for r in recs if r["task"] == "press" and r["method"] == "act")
     assert act["status"] == "done" and act["n"] == 20 and act["success_rate"] == pytest.approx(0.75)
     assert act["failures"] == {"not_pressed": 5}
+    assert act["lerobot_eval"] is None and "lerobot-eval" not in act["label"]
     assert act["max_contact_force"]["mean"] == pytest.approx(39.5)
     assert act["change_vs_demo"]["max_contact_force"]["pooled"] == pytest.approx(100 * (39.5 / 60.0 - 1))
     assert act["train_wall_time_s"] == 1234.0
@@ -113,3 +114,36 @@ def test_table3_has_the_papers_rows_and_our_spreads():
     assert any(line.startswith("| **paper: Control** |") and "44.01" in line for line in lines)
     ours = next(line for line in lines if line.startswith("| ours |"))
     assert "1.00 ± 0.00" in ours and "100% [98, 100]" in ours
+
+
+def test_learned_records_show_lerobot_evals_success(tmp_path):
+    eps = [_episode(1000 + i, i % 4 != 0, 30.0, 5.0) for i in range(20)]
+    ran = {
+        "n": 20,
+        "seeds": list(range(1000, 1020)),
+        "success_rate": 0.7,
+        "successes": [True] * 14 + [False] * 6,
+    }
+    doc = {
+        "task": "erase",
+        "method": "diffusion",
+        "train_steps": 10,
+        "wall_time_s": 99.0,
+        "lerobot_eval": ran,
+    }
+    (tmp_path / "erase__diffusion.json").write_text(json.dumps({**doc, "episodes": eps}))
+    rec = next(r for r in report.learned_records(tmp_path, {}) if r["status"] == "done")
+    assert rec["lerobot_eval"] == ran and rec["wall_time_s"] == 99.0
+    assert rec["label"].endswith("all 10 demos; lerobot-eval 70%)")
+
+
+def test_table2_and_grasp_tables_give_spreads_of_their_extra_columns():
+    rec = {**_t2("erase", "ours", -40.0, -33.0, 1.0, coverage=0.95), "label": "ours", "n": 20}
+    rec["metric_stds"] = {"coverage": 0.025}
+    rec["change_vs_demo"] = {k: {"mean": -40.0, "std": 1.0} for k in ("max_contact_force", "mean_contact_force")}
+    assert "| 0.950 ± 0.025 |" in "\n".join(report.table2_md([rec], "erase"))
+    grasp = {
+        "experiment": "grasp", "task": "grasp_push", "object": "book", "seen": True, "label": "ours", "n": 20,
+        "success_rate": 1.0, "protective_stops": 0, "max_finger_force": {"mean": [10.0, 11.0, 12.0], "std": [1.0, 2.0, 3.0]},
+    }  # fmt: skip
+    assert "| 10.0 ± 1.0, 11.0 ± 2.0, 12.0 ± 3.0 |" in "\n".join(report.grasp_md([grasp]))
