@@ -22,6 +22,7 @@ duplicate timestamps, warnings) goes to ``meta/forcemap_sources.json``; units an
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import shutil
 import warnings
@@ -503,14 +504,15 @@ def convert_gbti(
         raise ValueError(f"GBTI keys given more than once: {repeated}")
 
     def sources():
-        demos = iter_gbti_demos(path, key_list)
-        for index, key in enumerate(key_list):
-            try:
-                key, rec = next(demos)
-            except ValueError as err:  # name the episode and the demo, as for lab files
-                raise ValueError(f"episode {index} ({path}:{key}): {err}") from None
-            text = task or GBTI_TASKS.get(key.object, f"grasp the {key.object.lower()}")
-            yield EpisodeSource(rec, text, f"{path}:{key}", key)
+        # closing(): the reader holds the file open until it is exhausted or closed
+        with contextlib.closing(iter_gbti_demos(path, key_list)) as demos:
+            for index, key in enumerate(key_list):
+                try:
+                    key, rec = next(demos)
+                except ValueError as err:  # name the episode and the demo, as for lab files
+                    raise ValueError(f"episode {index} ({path}:{key}): {err}") from None
+                text = task or GBTI_TASKS.get(key.object, f"grasp the {key.object.lower()}")
+                yield EpisodeSource(rec, text, f"{path}:{key}", key)
 
     kwargs.setdefault("title", "GBTI grasping demonstrations (UR5e, wrist F/T, finger force)")
     kwargs.setdefault(
