@@ -259,6 +259,11 @@ def ablation_md(records: list[dict[str, Any]], task: str) -> list[str]:
     return lines
 
 
+def _pct_spread(row: dict[str, Any], name: str) -> str:
+    std = row.get(f"{name}_change_std")
+    return f"{row[f'{name}_change_pct']:+.1f}%" + ("" if std is None else f" ± {std:.1f}")
+
+
 def tuning_md(tuning: dict[str, Any]) -> list[str]:
     lines: list[str] = []
     for task in ("press", "erase"):
@@ -268,8 +273,8 @@ def tuning_md(tuning: dict[str, Any]) -> list[str]:
         lines += [
             f"**{task}** (tuning demos {t['demos']}, seeds {t['seeds']}; criterion: {t['criterion']})",
             "",
-            "| variant | setting | success | stops | Δ max | Δ mean | chosen |",
-            "|---|---|---|---|---|---|---|",
+            "| variant | setting | n | success | stops | Δ max (mean ± std over demos) | Δ mean | chosen |",
+            "|---|---|---|---|---|---|---|---|",
         ]
         for part, name in (
             ("weights", "weights"),
@@ -279,8 +284,8 @@ def tuning_md(tuning: dict[str, Any]) -> list[str]:
             chosen = t[part]["chosen"]
             for row in t[part]["grid"]:
                 lines.append(
-                    f"| {name} | {row['label']} | {100 * row['success_rate']:.0f}% | {row['protective_stops']} | "
-                    f"{row['max_change_pct']:+.1f}% | {row['mean_change_pct']:+.1f}% | {'**✓**' if row['params'] == chosen else ''} |"
+                    f"| {name} | {row['label']} | {row['n']} | {100 * row['success_rate']:.0f}% | {row['protective_stops']} | "
+                    f"{_pct_spread(row, 'max')} | {_pct_spread(row, 'mean')} | {'**✓**' if row['params'] == chosen else ''} |"
                 )
         lines.append("")
     t = tuning.get("peg_in_hole")
@@ -288,15 +293,15 @@ def tuning_md(tuning: dict[str, Any]) -> list[str]:
         lines += [
             f"**peg_in_hole** (tuning demos {t['demos']}, seeds {t['seeds']}; six numbers = X/Y/Z max, X/Y/Z mean)",
             "",
-            "| method | setting | success | six numbers (N) | normalised sum | below tuned hybrid | chosen |",
-            "|---|---|---|---|---|---|---|",
+            "| method | setting | n | success | six numbers (N, means over episodes) | normalised sum | below tuned hybrid | chosen |",
+            "|---|---|---|---|---|---|---|---|",
         ]
         for part in ("hybrid", "ours"):
             chosen = t[part]["chosen"]
             for row in t[part]["grid"]:
                 sixn = ", ".join(f"{v:.2f}" for v in [*row["max_xyz"], *row["mean_xyz"]])
                 lines.append(
-                    f"| {part} | {row['label']} | {100 * row['success_rate']:.0f}% | {sixn} | {row['normalised_sum']:.2f} | "
+                    f"| {part} | {row['label']} | {row['n']} | {100 * row['success_rate']:.0f}% | {sixn} | {row['normalised_sum']:.2f} | "
                     f"{row.get('below_hybrid', '–')} | {'**✓**' if row['params'] == chosen else ''} |"
                 )
         lines += ["", f"Criteria: hybrid — {t['hybrid']['criterion']}; ours — {t['ours']['criterion']}.", ""]

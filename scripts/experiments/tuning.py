@@ -44,11 +44,13 @@ def _records(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
 def grid_row(
     label: str, params: dict[str, Any], records: list[dict[str, Any]], demos: list[dict[str, Any]]
 ) -> dict[str, Any]:
-    """Tuning figures of one grid point: success, stops, % change of max / mean force (mean over demos),
+    """Tuning figures of one grid point: success, stops, % change of max / mean force (mean and std over demos),
     mean per-axis max / mean force, and eligibility."""
     n = len(records)
     ok = sum(r["success"] for r in records)
     stops = sum(r["protective_stop"] for r in records)
+    d_max = demo_change(records, demos, "max_contact_force")
+    d_mean = demo_change(records, demos, "mean_contact_force")
     row = {
         "label": label,
         "params": params,
@@ -56,8 +58,10 @@ def grid_row(
         "success_rate": ok / n if n else 0.0,
         "protective_stops": stops,
         "eligible": n > 0 and ok / n >= 0.95 and stops == 0,
-        "max_change_pct": demo_change(records, demos, "max_contact_force")["mean"],
-        "mean_change_pct": demo_change(records, demos, "mean_contact_force")["mean"],
+        "max_change_pct": d_max["mean"],
+        "max_change_std": d_max["std"],  # over the tuning demonstrations, ddof 1
+        "mean_change_pct": d_mean["mean"],
+        "mean_change_std": d_mean["std"],
         "max_xyz": np.mean([r["max_contact_force_xyz"] for r in records], axis=0).tolist(),
         "mean_xyz": np.mean([r["mean_contact_force_xyz"] for r in records], axis=0).tolist(),
     }
