@@ -46,7 +46,7 @@ bench: venv
 experiments: venv
 	HF_HUB_OFFLINE=1 $(PY) scripts/experiments/run_all.py
 
-# ACT and Diffusion trained with lerobot-train on CPU (~1 h); `make experiments` merges results/learned/.
+# ACT and Diffusion trained with lerobot-train on CPU (1-1.5 h); `make experiments` merges results/learned/.
 learned-baselines: venv
 	HF_HUB_OFFLINE=1 $(PY) scripts/experiments/learned_baselines.py --out results/learned
 

@@ -29,7 +29,8 @@ Budgets (defaults): ACT 4000 steps x batch 8, Diffusion 1500 steps x batch 64, t
 task. Measured on the shared 2-core machine (median of lerobot-train's logged updt_s + data_s):
 ACT 0.08 s/step (~5.5 min per task), Diffusion 0.48 s/step (~12 min per task; its data loading of
 16-frame action windows costs as much as the update); the whole 3 x 2 run took ~56 min including
-evaluation (20 episodes each, 7-67 s). Diffusion's budget is the larger share because it converges
+evaluation (20 episodes each, 7-67 s) before lerobot-eval was added; the latest, with both evaluations
+and partly sharing the cores with other jobs, 87 min. Diffusion's budget is the larger share because it converges
 more slowly (noise-prediction loss still falling at 700 steps: 0.15-0.17; at 1500: 0.05-0.06).
 """
 
