@@ -287,31 +287,29 @@ def settings_to_cli(settings: dict[str, Any]) -> list[str]:
     return argv
 
 
-def eval_command(
-    checkpoint: Path,
+def eval_settings(
+    checkpoint: str | Path,
     task: str,
-    out_dir: Path,
-    *,
-    episodes: int,
-    seed: int,
-    extras: Sequence[str],
-    python: str = "python",
-) -> list[str]:
-    """``lerobot-eval`` argv (as ``python -m lerobot.scripts.lerobot_eval``) on seeds seed .. seed+episodes-1
-    (one env at a time: LeRobot seeds batch ``b`` with ``seed + b*batch_size ...``)."""
-    return [
-        python,
-        "-m",
-        "lerobot.scripts.lerobot_eval",
-        f"--policy.path={checkpoint}",
-        "--policy.device=cpu",
-        f"--env.type=forcemap_{task}",
-        f"--env.env_state_extras={','.join(extras)}",
-        f"--eval.n_episodes={episodes}",
-        "--eval.batch_size=1",
-        f"--seed={seed}",
-        f"--output_dir={out_dir}",
-    ]
+    output_dir: str | Path,
+    seeds: Sequence[int],
+    env: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """A ``lerobot-eval`` configuration as a nested dict (a ``--config_path`` file when dumped) on seeds
+    ``seeds[0] ..`` one env at a time (LeRobot seeds batch ``b`` with ``seed + b*batch_size ...``), CPU.
+    ``env``: more ``--env.<key>`` values (e.g. ``env_state_extras``)."""
+    return {
+        "env": {"type": f"forcemap_{task}", **(env or {})},
+        "eval": {"n_episodes": len(seeds), "batch_size": 1},
+        "policy": {"path": str(checkpoint), "device": "cpu"},
+        "output_dir": str(output_dir),
+        "seed": int(seeds[0]),
+    }
+
+
+def eval_command(*args: Any, python: str = "python", **kwargs: Any) -> list[str]:
+    """``lerobot-eval`` argv (run as ``python -m lerobot.scripts.lerobot_eval``) of
+    ``eval_settings(*args, **kwargs)``."""
+    return [python, "-m", "lerobot.scripts.lerobot_eval", *settings_to_cli(eval_settings(*args, **kwargs))]
 
 
 def read_lerobot_eval(out_dir: Path, seeds: Sequence[int]) -> dict[str, Any]:

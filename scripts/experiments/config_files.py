@@ -76,13 +76,10 @@ def eval_settings(
     name: str, task: str, seeds: list[int], env: dict[str, Any] | None = None
 ) -> dict[str, Any]:
     """The ``lerobot-eval`` configuration of the checkpoint ``train/<name>.json`` writes."""
-    return {
-        "env": {"type": f"forcemap_{task}", **(env or {})},
-        "eval": {"n_episodes": len(seeds), "batch_size": 1},
-        "policy": {"path": f"outputs/train/{name}/checkpoints/last/pretrained_model", "device": "cpu"},
-        "output_dir": f"outputs/eval/{name}",
-        "seed": seeds[0],
-    }
+    from lerobot_forcemap.experiments.learned import eval_settings as settings
+
+    checkpoint = f"outputs/train/{name}/checkpoints/last/pretrained_model"
+    return settings(checkpoint, task, f"outputs/eval/{name}", seeds, env)
 
 
 def build_configs(doc: dict[str, Any], learned: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:

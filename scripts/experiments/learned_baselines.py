@@ -204,9 +204,9 @@ def run_lerobot_eval(
 
     if out_dir.exists():
         shutil.rmtree(out_dir)
-    argv = eval_command(
-        ckpt, task, out_dir, episodes=episodes, seed=seed, extras=extras, python=sys.executable
-    )
+    seeds = [seed + i for i in range(episodes)]
+    env = {"env_state_extras": ",".join(extras)}
+    argv = eval_command(ckpt, task, out_dir, seeds, env, python=sys.executable)
     log_path = out_dir.with_suffix(".log")
     print(f"lerobot-eval {task}: {episodes} episodes (log {log_path})", flush=True)
     t0 = time.perf_counter()
@@ -217,7 +217,7 @@ def run_lerobot_eval(
         raise RuntimeError(
             f"lerobot-eval failed (exit {rc}); log {log_path}:\n{log_path.read_text()[-3000:]}"
         )
-    result = read_lerobot_eval(out_dir, [seed + i for i in range(episodes)])
+    result = read_lerobot_eval(out_dir, seeds)
     return {**result, "wall_time_s": wall, "command": " ".join(argv[1:])}
 
 
