@@ -34,6 +34,7 @@ import torch
 from lerobot.policies.pretrained import PreTrainedPolicy
 from torch import Tensor, nn
 
+from lerobot_forcemap.data.hub import check_repo_id
 from lerobot_forcemap.jsonfile import read_json_object
 
 from .anchoring import object_poses, object_slots, place_skill, provisional_segments, reanchor_segment
@@ -441,10 +442,11 @@ def _read_config(pretrained_name_or_path: str | Path, where: object):
 
 
 def _check_repo_id_shape(name: str | Path) -> None:
-    path = Path(str(name))
-    if path.is_absolute() or str(name).startswith(".") or len(path.parts) != 2:
-        # not a folder and not shaped like a Hub repo id: LeRobot would say "Repo id must be in the form"
-        raise ValueError(f"{name}: no such checkpoint folder (nor a Hub repo id owner/name)")
+    try:
+        check_repo_id(str(name))
+    except ValueError:
+        # not a folder and not a Hub repo id: LeRobot would say "Repo id must be in the form"
+        raise ValueError(f"{name}: no such checkpoint folder (nor a Hub repo id owner/name)") from None
 
 
 def _refuse_changed_fit_settings(config: ForceMapConfig, stored: ForceMapConfig, where: object) -> None:

@@ -16,6 +16,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from huggingface_hub.errors import HFValidationError
+from huggingface_hub.utils import validate_repo_id
+
 from lerobot_forcemap.data.schema import require_dataset_root
 from lerobot_forcemap.jsonfile import read_json_object
 
@@ -28,9 +31,13 @@ DATASET_UPLOAD_PATTERNS = ("data/*", "meta/*", "videos/*", "README.md", ".gitatt
 
 
 def check_repo_id(repo_id: str) -> str:
-    """``repo_id`` if it reads ``owner/name``, else a ValueError naming it."""
+    """``repo_id`` if it reads ``owner/name`` under the Hub's naming rules, else a ValueError naming it."""
     if not isinstance(repo_id, str) or repo_id.count("/") != 1 or not all(repo_id.split("/")):
         raise ValueError(f"repo_id must be 'owner/name', got {repo_id!r}")
+    try:
+        validate_repo_id(repo_id)  # allowed characters, no leading '.', no '--', no '.git' ending
+    except HFValidationError as err:
+        raise ValueError(f"repo_id must be 'owner/name' ({err}), got {repo_id!r}") from None
     return repo_id
 
 

@@ -90,6 +90,9 @@ def test_push_rejects_bad_input(tmp_path):
     (tmp_path / "meta" / "info.json").write_text("{}")
     with pytest.raises(ValueError, match="owner/name"):
         push_dataset(tmp_path, "just-a-name")
+    for bad in ("me/press demo", "me/.press", "me/press.git", "me/press--v2"):  # the Hub's naming rules
+        with pytest.raises(ValueError, match=f"owner/name.*{bad}"):
+            push_dataset(tmp_path, bad)
 
 
 def test_forcemap_push_cli_dataset(tmp_path, capsys):

@@ -323,3 +323,7 @@ def test_a_missing_local_folder_is_named_as_such(tmp_path):
         ForceMapPolicy.from_pretrained(tmp_path / "nope" / "ckpt" / "x")
     with pytest.raises(ValueError, match=r"\./ckpt: no such checkpoint folder"):
         ForceMapPolicy.from_pretrained("./ckpt")
+    # two parts but not a Hub name either (a space, a trailing slash): named here, not sent to the Hub
+    for name in ("outputs/run 1", "outputs/train/"):
+        with pytest.raises(ValueError, match=f"{name}: no such checkpoint folder"):
+            ForceMapPolicy.from_pretrained(name)
