@@ -481,6 +481,25 @@ def convert_recordings(
     return convert_episodes(sources(), out, total=len(paths), **kwargs)
 
 
+def _gbti_key(key: GbtiKey | str, name: str) -> GbtiKey:
+    """``key`` as a :class:`GbtiKey`; a ValueError naming the argument it came from when it is not one."""
+    if isinstance(key, GbtiKey):
+        return key
+    try:
+        return GbtiKey.parse(key)
+    except ValueError as err:
+        raise ValueError(f"{name}: {err}") from None
+
+
+def _gbti_key_arg(text: str) -> GbtiKey:
+    try:
+        return GbtiKey.parse(text)
+    except (
+        ValueError
+    ) as err:  # argparse names the flag for an ArgumentTypeError (and hides a ValueError's text)
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
 def convert_gbti(
     path: str | Path,
     out: str | Path,
@@ -496,9 +515,7 @@ def convert_gbti(
     if not path.is_file():
         raise ValueError(f"GBTI file not found: {path}")
     _refuse_output_holding_inputs(out, [path])
-    key_list = (
-        gbti_keys(path) if keys is None else [k if isinstance(k, GbtiKey) else GbtiKey.parse(k) for k in keys]
-    )
+    key_list = gbti_keys(path) if keys is None else [_gbti_key(k, f"keys[{i}]") for i, k in enumerate(keys)]
     repeated = sorted({str(k) for k in key_list if key_list.count(k) > 1})
     if repeated:
         raise ValueError(f"GBTI keys given more than once: {repeated}")
@@ -544,7 +561,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--gbti", action="store_true", help="INPUT is the GBTI grasping file: one episode per demo"
     )
     parser.add_argument(
-        "--gbti-keys", nargs="+", metavar="KEY", help="only these demos, e.g. Cube/User1/Position1"
+        "--gbti-keys",
+        nargs="+",
+        metavar="KEY",
+        type=_gbti_key_arg,
+        help="only these demos, e.g. Cube/User1/Position1",
     )
     parser.add_argument(
         "--task", help="task string for every episode (default: from the file name / GBTI object)"

@@ -144,6 +144,8 @@ def test_wrong_kind_of_input_is_named(tmp_path):
         convert_gbti(
             gbti, tmp_path / "c", keys=["Cube/User1/Position1", "/Cube/User1/Position1/"], progress=False
         )
+    with pytest.raises(ValueError, match=r"keys\[1\]: not a GBTI key .*'Cube/User1'"):
+        convert_gbti(gbti, tmp_path / "c", keys=["Cube/User1/Position1", "Cube/User1"], progress=False)
     # an align error names the episode and its source among several: 100 Hz is above the second
     # file's Nyquist frequency (150 Hz sampling), not the first's
     fast = write_recorder_file(tmp_path / "press_fast.h5", make_streams(n=600, rate=1000.0))
@@ -170,6 +172,17 @@ def test_gbti_subset_via_cli(shared_data, tmp_path):
     assert sources[0]["gbti_key"] == {"object": "Cube", "user": 3, "position": 2}
     assert sources[0]["source_samples"]["joint"] == 941
     assert "Cube/User3/Position2" in (out / "README.md").read_text()
+
+
+def test_a_malformed_gbti_key_names_the_flag(capsys, tmp_path):
+    with pytest.raises(SystemExit):
+        forcemap_main(
+            ["convert", "x.h5", "--gbti", "--gbti-keys", "Cube/User1", "--out", str(tmp_path / "o")]
+        )
+    assert (
+        "argument --gbti-keys: not a GBTI key (Object/UserN/PositionM): 'Cube/User1'"
+        in capsys.readouterr().err
+    )
 
 
 def test_gbti_synthetic_all_demos(tmp_path):
