@@ -84,14 +84,18 @@ class ForceTaskEnv(gym.Env):
         for name, size in (("image_size", image_size), ("render_size", render_size)):
             if int(size) != size or size < 1:
                 raise ValueError(f"{name} must be a positive number of pixels, got {size!r}")
-        numeric = isinstance(force_cutoff_hz, (int, float, np.number)) and not isinstance(
-            force_cutoff_hz, bool
-        )
-        if not (numeric and 0 < force_cutoff_hz < float("inf")):
+
+        def numeric(x: object) -> bool:
+            return isinstance(x, (int, float, np.number)) and not isinstance(x, bool)
+
+        if not (numeric(force_cutoff_hz) and 0 < force_cutoff_hz < float("inf")):
             # NaN would pass a `<= 0` test, then turn the force observations and the protective stop off
             raise ValueError(
                 f"force_cutoff_hz must be a positive finite frequency (Hz), got {force_cutoff_hz!r}"
             )
+        if not (numeric(settle_seconds) and 0 <= settle_seconds < float("inf")):
+            # a negative one used to become the 2-step minimum silently, NaN to crash in int()
+            raise ValueError(f"settle_seconds must be a finite duration >= 0 (s), got {settle_seconds!r}")
         self.obs_type = obs_type
         self.render_mode = render_mode
         self.image_size = int(image_size)
@@ -128,6 +132,7 @@ class ForceTaskEnv(gym.Env):
                 f"control period {self.control_dt} s is not a multiple of the timestep {self.timestep} s"
             )
         self.metadata = {**self.metadata, "render_fps": int(round(t.control_hz))}  # an int: PyAV needs one
+        # at least 2 steps: reset settles half before `after_settle`, and the tare needs a tail sample
         self.settle_steps = max(2, int(round(settle_seconds / self.timestep)))
         self.force_cutoff_hz = force_cutoff_hz
 

@@ -29,7 +29,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .config import SegmentationConfig, Stream
+from .config import SegmentationConfig, Stream, stream_list
 from .segment import analyse_stream
 from .timebase import check_shared_time_base
 
@@ -50,9 +50,7 @@ def auto_weights(streams: Sequence[Stream], config: SegmentationConfig | None = 
     stream is flat (no contrast anywhere) it warns and returns uniform weights.
     """
     config = SegmentationConfig() if config is None else config
-    streams = list(streams)
-    if not streams:
-        raise ValueError("auto_weights needs at least one stream")
+    streams = stream_list(streams, "auto_weights")
     names = [s.name for s in streams]
     if len(set(names)) != len(names):
         raise ValueError(f"stream names must be unique, got {names}")

@@ -6,6 +6,7 @@ non-decreasing times) so that a bad recording fails with the stream's name and t
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Literal
 
@@ -40,6 +41,15 @@ def _real(value: object) -> float:
         return float("nan")
 
 
+def _float_array(name: str, field: str, data: object, shape: str) -> np.ndarray:
+    """``np.asarray(data, float64)``; numpy's conversion error (strings, ragged lists) names neither the
+    stream nor the argument, so it is raised again under both."""
+    try:
+        return np.asarray(data, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"stream {name!r}: {field} must be numbers of shape {shape}; {err}") from None
+
+
 @dataclass(frozen=True, eq=False)
 class Stream:
     """One data stream of a demonstration.
@@ -61,14 +71,14 @@ class Stream:
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
             raise ValueError(f"Stream name must be a non-empty string, got {self.name!r}")
-        values = np.asarray(self.values, dtype=np.float64)
+        values = _float_array(self.name, "values", self.values, "(T,) or (T, k)")
         if values.ndim == 1:
             values = values[:, None]
         if values.ndim != 2 or values.shape[0] < 2 or values.shape[1] < 1:
             raise ValueError(
                 f"stream {self.name!r}: values must have shape (T,) or (T, k) with T >= 2, got {np.shape(self.values)}"
             )
-        times = np.asarray(self.times, dtype=np.float64)
+        times = _float_array(self.name, "times", self.times, "(T,)")
         if times.ndim == 2 and times.shape[1] == 1:
             times = times[:, 0]
         if times.shape != (values.shape[0],):
@@ -120,6 +130,18 @@ class Stream:
     @property
     def n_frames(self) -> int:
         return int(self.values.shape[0])
+
+
+def stream_list(streams: Iterable[Stream], caller: str) -> list[Stream]:
+    """The streams of one call to `caller` as a list; ValueError when there are none or an item is not a
+    `Stream` (a bare array would fail later with an AttributeError)."""
+    streams = list(streams)
+    if not streams:
+        raise ValueError(f"{caller} needs at least one stream")
+    for s in streams:
+        if not isinstance(s, Stream):
+            raise ValueError(f"{caller} takes Stream objects, got {type(s).__name__}")
+    return streams
 
 
 #: the authors' lab recorder rate (~166 Hz) and their window = min_run = 64 samples at it (0.385 s): the
@@ -208,6 +230,11 @@ class SegmentationConfig:
             f"n_samples must be an int >= 1, got {self.n_samples!r}",
         )
         need(is_int(self.n_pass) and self.n_pass >= 1, f"n_pass must be an int >= 1, got {self.n_pass!r}")
+        need(
+            self.changepoints != "sample" or self.n_pass <= self.n_samples,
+            f"n_pass={self.n_pass} is above n_samples={self.n_samples}: no window can hold that many draws,"
+            " so sample mode could never give a changepoint",
+        )
         need(
             isinstance(self.seed, np.random.Generator) or (is_int(self.seed) and self.seed >= 0),
             f"seed must be an int >= 0 or a numpy.random.Generator, got {self.seed!r}",

@@ -9,7 +9,7 @@ import numpy as np
 
 from .changepoints import enforce_min_segment_length, peak_changepoints, sample_changepoints
 from .combine import combine_pmfs, stream_pmf
-from .config import SegmentationConfig, Stream
+from .config import SegmentationConfig, Stream, stream_list
 from .keypoints import stream_keypoints
 from .timebase import TimeRepair, check_shared_time_base, repair_duplicate_times
 
@@ -140,12 +140,7 @@ def segment_streams(
     decreasing times are caught when each `Stream` is built).
     """
     config = SegmentationConfig() if config is None else config
-    streams = list(streams)
-    if not streams:
-        raise ValueError("segment_streams needs at least one stream")
-    for s in streams:
-        if not isinstance(s, Stream):
-            raise ValueError(f"segment_streams takes Stream objects, got {type(s).__name__}")
+    streams = stream_list(streams, "segment_streams")
     names = [s.name for s in streams]
     if len(set(names)) != len(names):
         dup = sorted({n for n in names if names.count(n) > 1})

@@ -78,6 +78,16 @@ def test_bad_actions_and_options_raise():
             E.make("press", force_cutoff_hz=cutoff)
 
 
+def test_settle_seconds_must_be_a_finite_non_negative_duration():
+    # -1 used to become the 2-step minimum silently; NaN crashed in int() with numpy's message
+    for settle in (float("nan"), -1.0, float("inf"), True, "0.3", None):
+        with pytest.raises(ValueError, match=r"settle_seconds must be a finite duration >= 0 \(s\), got"):
+            E.make("press", settle_seconds=settle)
+    env = E.make("press", settle_seconds=0)  # 0: the shortest settle the reset needs (2 physics steps)
+    assert env.unwrapped.settle_steps == 2
+    env.close()
+
+
 def test_clipping_is_reported_not_silent():
     env = E.make("press")
     obs, info = env.reset(seed=0)

@@ -53,6 +53,18 @@ def test_observation_layout_objects_and_info():
     env.close()
 
 
+def test_an_empty_object_name_is_refused_and_none_is_the_demo_object():
+    # object="" used to fall back to the demonstration object silently
+    with pytest.raises(
+        ValueError, match=r"grasp_push: unknown object ''; choose one of \['book', 'apple', 'banana'\]"
+    ):
+        E.make("grasp_push", object="")
+    for kwargs in ({}, {"object": None}):
+        env = E.make("grasp_push", **kwargs)
+        assert env.unwrapped.task_impl.obj.name == "book"
+        env.close()
+
+
 def test_object_poses_are_randomised_within_the_documented_ranges():
     push, flip = E.make("grasp_push"), E.make("grasp_flip")
     gaps, ys, walls, flip_xy = [], [], [], []

@@ -75,3 +75,13 @@ def test_reweighted_feeds_segment_streams() -> None:
         reweighted(s, {"clean": 1.0})
     with pytest.raises(ValueError, match="unknown streams"):
         reweighted(s, {**w, "ghost": 1.0})
+
+
+def test_auto_weights_takes_stream_objects() -> None:
+    # a bare array used to fail with AttributeError: 'numpy.ndarray' object has no attribute 'name'
+    with pytest.raises(ValueError, match="auto_weights takes Stream objects, got ndarray"):
+        auto_weights([np.zeros((100, 3))])
+    with pytest.raises(ValueError, match="auto_weights takes Stream objects, got str"):
+        auto_weights([*streams(), "still"])
+    with pytest.raises(ValueError, match="auto_weights needs at least one stream"):
+        auto_weights([])

@@ -174,11 +174,34 @@ def test_other_bad_input() -> None:
         ({"peak_ratio": None}, "peak_ratio must be >= 1, got None"),
         ({"time_tolerance": "0.1"}, "time_tolerance must be None or >= 0 seconds, got '0.1'"),
         ({"duplicate_times": "ignore"}, "duplicate_times"),
+        # no window can hold more draws than there are: the result would be [0, T] whatever the data
+        ({"changepoints": "sample", "n_samples": 2, "n_pass": 5}, "n_pass=5 is above n_samples=2"),
     ],
 )
 def test_config_validation(kwargs: dict, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         SegmentationConfig(**kwargs)
+
+
+def test_n_pass_above_n_samples_only_matters_in_sample_mode() -> None:
+    SegmentationConfig(changepoints="peaks", n_samples=2, n_pass=5)  # peaks mode draws nothing
+    SegmentationConfig(changepoints="sample", n_samples=5, n_pass=5)  # all draws in one window
+
+
+@pytest.mark.parametrize("field", ["values", "times"])
+@pytest.mark.parametrize(
+    ("data", "numpy_says"),
+    [
+        (np.array(["a"] * 10), "could not convert string to float"),
+        ([[1.0, 2.0], [3.0]] + [[0.0, 0.0]] * 8, "inhomogeneous"),
+        ([{"t": 1.0}] * 10, "dict"),
+    ],
+)
+def test_unconvertible_values_and_times_name_the_stream(field: str, data, numpy_says: str) -> None:
+    # numpy's own message named neither the stream nor the argument
+    args = {"values": np.zeros(10), "times": np.arange(10) * DT, field: data}
+    with pytest.raises(ValueError, match=rf"stream 'pos': {field} must be .*numbers.*{numpy_says}"):
+        Stream("pos", **args)
 
 
 def test_stream_keeps_caller_arrays_writable() -> None:

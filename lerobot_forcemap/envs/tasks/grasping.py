@@ -189,7 +189,8 @@ class GraspTask(ForceTask):
 
     def __init__(self, robot, *, randomize: bool = True, object_name: str | None = None):
         super().__init__(robot, randomize=randomize)
-        name = object_name or self.demo_object
+        # only None means "the demo object": `or` also turned "" into it
+        name = self.demo_object if object_name is None else object_name
         if name not in self.objects:
             raise ValueError(f"{self.name}: unknown object {name!r}; choose one of {list(self.objects)}")
         self.obj = GRASP_OBJECTS[name]
