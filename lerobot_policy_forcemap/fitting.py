@@ -180,6 +180,12 @@ def segment_episode(ep: EpisodeArrays, config: ForceMapConfig, fps: float) -> ND
         result = segment_streams(episode_streams(ep, config), seg_cfg)
     except ValueError as err:
         raise ValueError(f"episode {ep.episode}: segmentation failed: {err}") from err
+    if len(result.rejected):
+        logger.warning(
+            "episode %d: min_segment_s=%g (%d frames) dropped the changepoint(s) at frame(s) %s; kept %s",
+            ep.episode, config.min_segment_s, seg_cfg.min_segment_frames, result.rejected.tolist(),
+            result.changepoints.tolist(),
+        )  # fmt: skip
     return np.asarray(result.changepoints, dtype=np.int64)
 
 

@@ -516,7 +516,11 @@ def run(args: argparse.Namespace) -> int:
         write=not args.dry_run,
     )
     for s in segs:
-        print(f"episode {s.episode_index}: {s.n_segments} segment(s), changepoints {s.changepoints.tolist()}")
+        dropped = s.result.rejected.tolist() if s.result is not None else []
+        print(
+            f"episode {s.episode_index}: {s.n_segments} segment(s), changepoints {s.changepoints.tolist()}"
+            + (f"; --min-segment-length dropped {dropped}" if dropped else "")
+        )
     single = [s for s in segs if s.n_segments == 1]
     if single:
         # --window/--min-run count frames: the authors' 64 are 0.39 s at their ~166 Hz recorder

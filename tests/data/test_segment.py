@@ -233,6 +233,33 @@ def test_no_changepoint_note_gives_the_window_in_frames_at_the_dataset_fps(datas
     assert "its cuts can differ: fit with segments='dataset' to use these labels" in out
 
 
+def test_changepoints_dropped_by_min_segment_length_are_printed(dataset, capsys):
+    args = [
+        "segment",
+        "--dataset",
+        str(dataset),
+        "--dry-run",
+        "--window",
+        "10",
+        "--min-run",
+        "5",
+        "--grace",
+        "1",
+    ]
+
+    def episode_0(extra: list[str]) -> str:
+        assert forcemap_main(args + extra) == 0
+        return next(x for x in capsys.readouterr().out.splitlines() if x.startswith("episode 0:"))
+
+    found = episode_0([])
+    assert "1 segment(s)" not in found and "dropped" not in found
+    cut = [c.strip() for c in found.split("changepoints [0, ")[1].split(",")[:-1]]
+    line = episode_0(["--min-segment-length", "10000"])
+    assert line.endswith(
+        f"1 segment(s), changepoints [0, 150]; --min-segment-length dropped [{', '.join(cut)}]"
+    )
+
+
 def test_a_dataset_without_force_is_segmented_with_a_warning(tmp_path):
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 

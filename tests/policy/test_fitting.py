@@ -131,6 +131,20 @@ def test_segmentation_window_scales_with_fps():
     assert cp[0] == 0 and cp[-1] == press_episode(0).n_frames and len(cp) >= 2
 
 
+def test_changepoints_dropped_by_min_segment_s_are_reported(caplog):
+    ep = press_episode(0)
+    found = segment_episode(ep, ForceMapConfig(device="cpu"), 20.0)
+    assert len(found) > 2  # the press demo has changepoints to lose
+    with caplog.at_level("WARNING"):
+        # longer than the demo (4.3 s): no changepoint can stay
+        cp = segment_episode(ep, ForceMapConfig(device="cpu", min_segment_s=2.5), 20.0)
+    assert cp.tolist() == [0, ep.n_frames]
+    assert (
+        f"episode 0: min_segment_s=2.5 (50 frames) dropped the changepoint(s) at frame(s) {found[1:-1].tolist()}; "
+        f"kept [0, {ep.n_frames}]" in caplog.text
+    )
+
+
 def test_a_fit_stopped_at_max_iter_is_reported(caplog):
     with caplog.at_level("WARNING"):
         _, report, _ = _fit([press_episode(0, depth=DEPTH, K=K_DEMO)], max_iter=1)
