@@ -32,7 +32,7 @@ from lerobot.configs import NormalizationMode, PreTrainedConfig
 from lerobot.optim import SGDConfig
 
 from lerobot_forcemap import layout
-from lerobot_forcemap.segmentation.config import AUTHORS_WINDOW_S
+from lerobot_forcemap.segmentation.config import AUTHORS_WINDOW_S, CHANGEPOINT_METHODS, MODES
 
 __all__ = [
     "ForceMapConfig",
@@ -111,6 +111,10 @@ def config_error_detail(err: BaseException) -> str:
     ("Couldn't instantiate class ForceMapConfig"); the reason (our ``ValueError`` naming the field) is its cause."""
     cause = err.__cause__ or err.__context__
     return f"{err}" + (f" ({cause})" if cause is not None else "")
+
+
+def _positive_finite(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and 0 < value < float("inf")
 
 
 def elmap_param_problem(name: str, value: object) -> str | None:
@@ -343,18 +347,37 @@ class ForceMapConfig(PreTrainedConfig):
         need(all(v >= 0 for v in self.stream_weights.values()), "stream_weights", "weights must be >= 0")
         unknown = sorted(set(self.stream_thresholds) - set(DEFAULT_STREAM_THRESHOLDS))
         need(not unknown, "stream_thresholds", f"unknown stream(s) {unknown}")
-        need(self.segmentation_window_s > 0, "segmentation_window_s", "must be > 0 s")
-        need(self.min_segment_s is None or self.min_segment_s > 0, "min_segment_s", "must be None or > 0 s")
+        # checked here, not first when the dataset is segmented, and under this config's field names
+        need(self.segmentation_mode in MODES, "segmentation_mode", f"must be one of {MODES}")
+        need(
+            self.changepoints in CHANGEPOINT_METHODS, "changepoints", f"must be one of {CHANGEPOINT_METHODS}"
+        )
+        need(
+            isinstance(self.segmentation_seed, int)
+            and not isinstance(self.segmentation_seed, bool)
+            and self.segmentation_seed >= 0,
+            "segmentation_seed",
+            "must be an integer >= 0",
+        )
+        # finite: they become frame counts (an infinite one overflowed int())
+        need(
+            _positive_finite(self.segmentation_window_s), "segmentation_window_s", "must be finite and > 0 s"
+        )
+        need(
+            self.min_segment_s is None or _positive_finite(self.min_segment_s),
+            "min_segment_s",
+            "must be None or finite and > 0 s",
+        )
         need(self.n_nodes is None or int(self.n_nodes) >= 3, "n_nodes", "must be None or >= 3")
-        need(self.nodes_per_second > 0, "nodes_per_second", "must be > 0")
+        need(_positive_finite(self.nodes_per_second), "nodes_per_second", "must be finite and > 0")
         need(int(self.min_nodes) >= 3, "min_nodes", "must be >= 3")
         for name in (*ELMAP_PARAMS, *GRIPPER_PARAMS):
             problem = elmap_param_problem(name, getattr(self, name))
             need(problem is None, name, str(problem))
         need(
-            self.gripper_nodes_per_second is None or self.gripper_nodes_per_second > 0,
+            self.gripper_nodes_per_second is None or _positive_finite(self.gripper_nodes_per_second),
             "gripper_nodes_per_second",
-            "must be None or > 0",
+            "must be None or finite and > 0",
         )
         need(self.reanchor_tolerance >= 0, "reanchor_tolerance", "must be >= 0 m")
         need(

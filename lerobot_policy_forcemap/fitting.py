@@ -46,7 +46,7 @@ from .anchoring import (
     object_slots,
     to_object_frame,
 )
-from .configuration_forcemap import ForceMapConfig
+from .configuration_forcemap import DEFAULT_STREAM_WEIGHTS, ForceMapConfig
 from .episodes import EpisodeArrays
 from .skill import FittedSkill, SegmentMaps
 
@@ -118,6 +118,16 @@ def segmentation_config(config: ForceMapConfig, fps: float) -> SegmentationConfi
     )
 
 
+#: the config field naming the dataset feature each segmentation stream reads
+STREAM_FEATURE_FIELDS = {
+    "position": "pose_key",
+    "wrist_force": "force_key",
+    "joints": "joints_key",
+    "gripper": "gripper_key",
+    "finger_force": "finger_force_key",
+}
+
+
 def episode_streams(ep: EpisodeArrays, config: ForceMapConfig) -> list[Stream]:
     """Segmentation streams of one episode (those with a weight > 0 whose data the dataset has)."""
     sources = {
@@ -130,6 +140,14 @@ def episode_streams(ep: EpisodeArrays, config: ForceMapConfig) -> list[Stream]:
     streams = []
     for name, values in sources.items():
         weight = float(config.stream_weights[name])
+        if values is None and weight > 0 and weight != DEFAULT_STREAM_WEIGHTS[name]:
+            # a default weight of a stream the dataset lacks is skipped quietly (one config serves every
+            # task); a weight someone set is not
+            logger.warning(
+                "episode %d: stream_weights[%r]=%g is set, but the dataset has no %r feature for it; that stream "
+                "is left out of the segmentation",
+                ep.episode, name, weight, getattr(config, STREAM_FEATURE_FIELDS[name]),
+            )  # fmt: skip
         if values is None or weight <= 0:
             continue
         threshold = float(config.stream_thresholds[name])

@@ -7,7 +7,7 @@ import pytest
 
 from lerobot_policy_forcemap.anchoring import place_skill
 from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
-from lerobot_policy_forcemap.fitting import fit_skill, segment_episode, segmentation_config
+from lerobot_policy_forcemap.fitting import episode_streams, fit_skill, segment_episode, segmentation_config
 
 from .helpers import OBJECT_NAMES, press_episode
 
@@ -142,6 +142,21 @@ def test_changepoints_dropped_by_min_segment_s_are_reported(caplog):
     assert (
         f"episode 0: min_segment_s=2.5 (50 frames) dropped the changepoint(s) at frame(s) {found[1:-1].tolist()}; "
         f"kept [0, {ep.n_frames}]" in caplog.text
+    )
+
+
+def test_a_set_weight_for_a_stream_the_dataset_lacks_is_reported(caplog):
+    ep = press_episode(0)  # the press demonstrations have no finger forces
+    assert ep.finger_force is None
+    with caplog.at_level("WARNING"):
+        episode_streams(ep, ForceMapConfig(device="cpu"))  # the default weight: skipped quietly
+    assert "stream_weights" not in caplog.text
+    with caplog.at_level("WARNING"):
+        streams = episode_streams(ep, ForceMapConfig(device="cpu", stream_weights={"finger_force": 5.0}))
+    assert "finger_force" not in [s.name for s in streams]
+    assert (
+        "episode 0: stream_weights['finger_force']=5 is set, but the dataset has no 'observation.finger_force' "
+        "feature for it" in caplog.text
     )
 
 
