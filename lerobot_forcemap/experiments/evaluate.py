@@ -261,6 +261,8 @@ def evaluate_policy(
 
     if episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {episodes}")
+    if seed < 0:  # gymnasium's own error names no flag, and comes as a traceback
+        raise ValueError(f"--seed must be >= 0, got {seed}")
     env_kwargs = object_kwargs(task, object_name, "--object")  # checked before the policy loads
     policy, pre, post = load_policy(policy_path, device)
     _match_control_rate(policy, task)
@@ -601,6 +603,10 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.json)
     if out.is_dir():  # found before the rollouts, not after
         raise ValueError(f"--json {out}: is a folder; give the path of the JSON file to write")
+    if args.dataset:  # found before the rollouts, not after them with nothing written
+        from lerobot_forcemap.data.schema import require_dataset_root
+
+        require_dataset_root(args.dataset, "--dataset")
     records = evaluate_policy(
         args.policy,
         args.task,

@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lerobot_forcemap import layout
-from lerobot_forcemap.experiments.evaluate import episode_outcome, to_json
+from lerobot_forcemap.experiments.evaluate import FORCE_KEYS, episode_outcome, to_json
 
 __all__ = [
     "EVAL_SEEDS",
@@ -76,7 +76,6 @@ ANCHOR_OBJECT = {
     "grasp_push": "obj",
     "grasp_flip": "obj",
 }
-FORCE_KEYS = ("max_contact_force", "mean_contact_force", "max_contact_force_xyz", "mean_contact_force_xyz")
 FINGER_KEYS = ("max_finger_force", "mean_finger_force")
 REPO_ROOT = Path(__file__).resolve().parents[2]
 #: version of the episode records and of the episode loop (part of the cache fingerprint)

@@ -20,6 +20,8 @@ from typing import Any
 
 import numpy as np
 
+from .evaluate import FORCE_KEYS
+
 __all__ = [
     "table_rows",
     "markdown_table",
@@ -308,6 +310,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, help="output folder for report.md and PNGs")
 
 
+def _is_number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def check_eval_document(doc: Any, where: str) -> None:
     """Raise ``ValueError`` naming ``where`` and the field when ``doc`` is not what ``forcemap eval``
     writes: the fields the tables and plots read, with their types."""
@@ -329,6 +335,32 @@ def check_eval_document(doc: Any, where: str) -> None:
     for key in ("success_rate", "protective_stops"):
         if not isinstance(summary.get(key), (int, float)):
             raise bad(f"summary.{key}", "is missing or not a number")
+    summaries = {"summary": summary}
+    demos = doc.get("demonstrations")
+    if demos is not None:
+        if not isinstance(demos, dict):
+            raise bad("demonstrations", "is not an object")
+        summaries.update(
+            {f"demonstrations.{k}": demos[k] for k in ("summary_fitted", "summary_all") if k in demos}
+        )
+    for name, block in summaries.items():  # the force statistics the tables format and the plots draw
+        if not isinstance(block, dict):
+            raise bad(name, "is not an object")
+        for key in FORCE_KEYS:
+            if key not in block:
+                continue
+            for part in ("mean", "std"):
+                value = block[key].get(part) if isinstance(block[key], dict) else None
+                per_axis = key.endswith("_xyz")
+                if not (
+                    isinstance(value, list) and len(value) == 3 and all(map(_is_number, value))
+                    if per_axis
+                    else _is_number(value)
+                ):
+                    raise bad(
+                        f"{name}.{key}.{part}",
+                        f"is {value!r}, expected {'3 numbers' if per_axis else 'a number'}",
+                    )
     for i, rec in enumerate(doc["episodes"]):
         if not isinstance(rec, dict):
             raise bad(f"episodes[{i}]", "is not an object")

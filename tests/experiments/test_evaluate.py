@@ -233,3 +233,18 @@ def test_eval_clocks_a_skill_of_another_rate_at_the_envs_rate(press_checkpoint, 
     _match_control_rate(policy, "press")
     assert policy.config.control_fps == 20.0 and policy.clock_hz == 20.0
     assert "fitted at 50 fps and press steps at 20 Hz: control_fps=20" in capsys.readouterr().err
+
+
+def test_a_bad_dataset_or_seed_is_refused_before_any_rollout(press_checkpoint, tmp_path, monkeypatch):
+    """A typo in --dataset used to surface after every episode had run, with no JSON written."""
+    import lerobot_forcemap.experiments.evaluate as evaluate
+
+    def no_rollouts(*args, **kwargs):
+        raise AssertionError("the policy was loaded and rolled out before the arguments were checked")
+
+    monkeypatch.setattr(evaluate, "load_policy", no_rollouts)
+    base = ["eval", "--policy", str(press_checkpoint), "--task", "press", "--json", str(tmp_path / "e.json")]
+    with pytest.raises(ValueError, match=r"--dataset .*nope: not a LeRobot dataset \(no meta/info.json\)"):
+        main([*base, "--dataset", str(tmp_path / "nope")])
+    with pytest.raises(ValueError, match="--seed must be >= 0, got -1"):
+        main([*base, "--seed", "-1"])

@@ -118,7 +118,17 @@ def test_what_is_not_an_eval_document_is_named(tmp_path):
     good = _doc()
     bad_trace = _doc()
     bad_trace["episodes"][1]["trace"]["rows"][3] = [0.0, 1.0]
+    bad_mean, bad_axes = _doc(), _doc()
+    bad_mean["summary"]["max_contact_force"]["mean"] = (
+        "abc"  # used to fail in a format string, naming nothing
+    )
+    bad_axes["demonstrations"]["summary_all"]["mean_contact_force_xyz"]["std"] = [1.0, 2.0]
     cases = [
+        (bad_mean, r"summary.max_contact_force.mean is 'abc', expected a number"),
+        (
+            bad_axes,
+            r"demonstrations.summary_all.mean_contact_force_xyz.std is \[1.0, 2.0\], expected 3 numbers",
+        ),
         (3, "the document is a JSON int"),
         ({**good, "episodes": [], "summary": summarize([])}, r"summary.n is 0 for 0 episode record\(s\)"),
         ({k: v for k, v in good.items() if k != "policy"}, "field 'policy' is missing"),
