@@ -16,7 +16,7 @@ from .combine import combine_pmfs, stream_pmf
 from .config import AUTHORS_RATE_HZ, AUTHORS_WINDOW_S, SegmentationConfig, Stream
 from .keypoints import StreamKeypoints, savgol_third_derivative, stream_keypoints, threshold_runs
 from .segment import SegmentationResult, StreamAnalysis, StreamResult, analyse_stream, segment_streams
-from .timebase import TimeRepair, TimeRepairWarning
+from .timebase import TimeRepair, TimeRepairWarning, UnevenTimeWarning
 
 __all__ = [
     "AUTHORS_RATE_HZ",
@@ -29,6 +29,7 @@ __all__ = [
     "StreamResult",
     "TimeRepair",
     "TimeRepairWarning",
+    "UnevenTimeWarning",
     "analyse_stream",
     "auto_weights",
     "combine_pmfs",

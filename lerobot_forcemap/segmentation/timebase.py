@@ -24,6 +24,36 @@ class TimeRepairWarning(UserWarning):
     """Samples with duplicated timestamps were merged before taking derivatives."""
 
 
+class UnevenTimeWarning(UserWarning):
+    """Gaps in a stream's sample times: the Savitzky–Golay jerk takes the samples as evenly spaced."""
+
+
+#: a time step this many times the median is a gap (dropped samples), not recorder jitter: the lab
+#: recordings and the GBTI demos have single late samples (up to 2.3x) but none at 3x
+GAP_RATIO = 3.0
+
+
+def warn_uneven_spacing(name: str, times: np.ndarray, frames: np.ndarray | None = None) -> None:
+    """A `UnevenTimeWarning` when a time step exceeds `GAP_RATIO` times the median one.
+
+    times (n,) increasing; frames (n,) their original frame indices (None: 0..n-1)."""
+    dt = np.diff(times)
+    median = float(np.median(dt))
+    gaps = np.flatnonzero(dt > GAP_RATIO * median)
+    if not gaps.size:
+        return
+    worst = int(gaps[np.argmax(dt[gaps])])
+    frame = int(worst + 1 if frames is None else frames[worst + 1])
+    warnings.warn(
+        f"stream {name!r}: {gaps.size} time step(s) longer than {GAP_RATIO:g}x the median"
+        f" ({median * 1e3:.3g} ms), the longest {dt[worst] / median:.1f}x before frame {frame}; the"
+        " Savitzky-Golay jerk (derivative='savgol') takes samples as evenly spaced, so the jerk across a"
+        " gap is wrong: resample the stream onto an even time base, or use derivative='difference'",
+        UnevenTimeWarning,
+        stacklevel=3,
+    )
+
+
 @dataclass(frozen=True, eq=False)
 class TimeRepair:
     """What the duplicated-timestamp repair did to one stream.

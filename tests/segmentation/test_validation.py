@@ -57,6 +57,30 @@ def test_repeated_first_sample_is_merged_and_reported(derivative: str) -> None:
     assert padded.changepoints[-1] == 1000
 
 
+def test_a_gap_in_the_sample_times_is_reported_for_the_savgol_jerk() -> None:
+    import warnings
+
+    from lerobot_forcemap.segmentation import UnevenTimeWarning
+
+    values, times = event_stream(600)
+    jitter = times.copy()
+    jitter[100] += 0.9 * (times[101] - times[100])  # one late sample (a 1.9x step): recorder jitter
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnevenTimeWarning)
+        segment_streams([Stream("arm", values, jitter)], SegmentationConfig(window=32, min_run=32))
+    keep = np.r_[0:300, 305:600]  # 5 dropped frames: a 6x step before what is frame 300 of the stream
+    with pytest.warns(
+        UnevenTimeWarning, match=r"'arm': 1 time step\(s\) longer than 3x .* 6\.0x before frame 300"
+    ):
+        segment_streams([Stream("arm", values[keep], times[keep])], SegmentationConfig(window=32, min_run=32))
+    with warnings.catch_warnings():  # the raw differences use the real time steps
+        warnings.simplefilter("error", UnevenTimeWarning)
+        segment_streams(
+            [Stream("arm", values[keep], times[keep])],
+            SegmentationConfig(window=32, min_run=32, derivative="difference"),
+        )
+
+
 def test_duplicates_in_the_middle_with_different_values_are_reported() -> None:
     values, times = event_stream(600)
     times = times.copy()
