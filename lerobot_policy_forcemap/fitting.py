@@ -89,6 +89,7 @@ class FitReport:
                 "duration_s": a.duration,
                 "n_iter": a.n_iter,
                 "stop_reason": a.stop_reason,
+                "last_step": a.last_step,
                 "n_force_points": a.n_force_points,
                 "capped_nodes": int(len(a.capped_nodes)),
                 "gripper_n_iter": g.n_iter,
@@ -416,11 +417,13 @@ def fit_skill(
                 # the EM still moved: these nodes are one iterate of many, not a fixed point
                 logger.warning(
                     "segment %d: the %s map's EM stopped at max_iter=%d without converging (%d capped "
-                    "node-axes); its nodes may change with max_iter. A stiffer map (stiffness) caps fewer nodes.",
+                    "node-axes; nodes still moved up to %.3g in the last iteration); its nodes may change "
+                    "with max_iter. A stiffer map (stiffness) caps fewer nodes.",
                     s,
                     what,
                     fit.n_iter,
                     len(fit.capped_nodes),
+                    fit.last_step,
                 )
         segments.append(
             SegmentMaps(

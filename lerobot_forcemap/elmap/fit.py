@@ -86,7 +86,9 @@ class ElasticMapFit:
 
     nodes (N, d); node_times (N,) seconds from the segment start; orientations (N, 4) w-first or None;
     labels (M,) node of every stacked demo sample; capped_nodes (C, 2) rows (node, axis) whose force
-    weights were scaled down by the rho_max cap in the last iteration.
+    weights were scaled down by the rho_max cap in the last iteration; last_step the largest change of a
+    node coordinate in the last M-step (positions' units; 0 when the assignment repeated without force
+    points): how far from a fixed point a fit stopped at ``max_iter`` still is.
     """
 
     nodes: Array
@@ -102,6 +104,7 @@ class ElasticMapFit:
     n_force_limit_rows: int
     solver: str
     energy_history: tuple[float, ...] = field(repr=False, default=())
+    last_step: float = 0.0
 
     @property
     def n_nodes(self) -> int:
@@ -665,6 +668,7 @@ def fit_force_elastic_map(
     hashes: list[int] = []
     history: list[float] = []
     spring_moved = 0.0
+    last_step = 0.0
     reason = "max_iter"
     capped = np.zeros((n_nodes, dim), dtype=bool)
     n_rows = 0
@@ -684,6 +688,7 @@ def fit_force_elastic_map(
         if same and fp is None:
             # Same assignment, nothing else that moves: the M-step would return these nodes again.
             reason = "converged"
+            last_step = 0.0
             break
         if not same:
             W_demo, b_demo = steps.cluster_sums(demo_w)
@@ -711,6 +716,7 @@ def fit_force_elastic_map(
         energy = energy_terms(y_new, W, b, S, lam, mu)
         history.append(energy.total)
         moved = float(np.max(np.abs(y_new - y)))
+        last_step = moved
         y = y_new
         if same and max(moved, spring_moved) <= xtol * scale:
             reason = "converged"
@@ -753,4 +759,5 @@ def fit_force_elastic_map(
         n_force_limit_rows=n_rows,
         solver="clarabel" if use_clarabel else "banded",
         energy_history=tuple(history),
+        last_step=last_step,
     )

@@ -97,6 +97,20 @@ def test_returned_nodes_are_a_fixed_point_of_em(with_force):
     np.testing.assert_allclose(again, fit.nodes, rtol=0, atol=1e-8)
 
 
+@pytest.mark.parametrize("with_force", [False, True])
+def test_last_step_is_how_far_the_last_iteration_moved_the_nodes(with_force):
+    x = s_curve(n=800, seed=1)
+    f = contact_forces(x, 200, 600, 25.0) if with_force else None
+    kw = dict(n_nodes=50, lam=0.01, mu=0.01, delta=0.01, stiffness=5000.0, f_contact=2.0)
+    fits = [fit_force_elastic_map(x, f, max_iter=k, **kw) for k in (2, 3)]
+    assert fits[1].stop_reason == "max_iter"
+    # the EM is deterministic: iteration 3 starts from where a fit stopped after 2
+    moved = np.max(np.abs(fits[1].nodes - fits[0].nodes))
+    assert moved > 1e-4 and fits[1].last_step == pytest.approx(moved, rel=1e-12)
+    done = fit_force_elastic_map(x, f, **kw)
+    assert done.stop_reason == "converged" and done.last_step <= 1e-9 * np.ptp(x, axis=0).max()
+
+
 def _brute_force_nearest(x, y):
     """Distances from differences, argmin ties to the lowest index."""
     return np.argmin(np.linalg.norm(x[:, None, :] - y[None, :, :], axis=2), axis=1)
