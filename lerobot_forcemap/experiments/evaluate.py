@@ -471,6 +471,12 @@ def summarize(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
                 "std": to_json(v.std(axis=0)),
                 "max": to_json(v.max(axis=0)),
             }
+    # the env clips targets outside its workspace / speed limit and says so per step in info; here the
+    # episodes' counts add up, so a report shows whether the policy asked for what the robot did not do
+    clipped = [r["metrics"]["n_clipped_steps"] for r in records if "n_clipped_steps" in r.get("metrics", {})]
+    if clipped:
+        out["clipped_steps"] = int(sum(clipped))
+        out["episodes_clipped"] = int(sum(c > 0 for c in clipped))
     return out
 
 

@@ -73,6 +73,12 @@ def table_rows(doc: dict[str, Any]) -> list[tuple[str, str, str, str]]:
         ),
         ("protective stops", str(demo.get("protective_stops", "–")), str(rep["protective_stops"]), ""),
         (
+            "episodes with clipped targets (steps)",
+            "–",
+            f"{rep['episodes_clipped']} ({rep['clipped_steps']})" if "clipped_steps" in rep else "–",
+            "",
+        ),
+        (
             "max contact force (N)",
             _fmt(demo.get("max_contact_force")),
             _fmt(rep.get("max_contact_force")),

@@ -35,6 +35,7 @@ def test_cli_eval_writes_records_and_demonstrations(press_checkpoint, press_data
     assert "success" in capsys.readouterr().out
     doc = json.loads(out.read_text())
     assert [r["seed"] for r in doc["episodes"]] == [7, 8]
+    assert doc["summary"]["clipped_steps"] == sum(r["metrics"]["n_clipped_steps"] for r in doc["episodes"])
     rec = doc["episodes"][0]
     for key in (
         "success",

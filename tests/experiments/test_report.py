@@ -87,6 +87,14 @@ def test_table_numbers():
     assert rows["success"][:2] == ("100%", "100%")
     assert rows["max contact force (N)"] == ("50.0 ± 0.0", "22.0 ± 2.0", "-56%")
     assert rows["mean contact force (N)"][2] == "-54%"
+    assert rows["episodes with clipped targets (steps)"] == ("–", "–", "")  # records without the env's counts
+    doc = _doc()
+    for rec, n in zip(doc["episodes"], (0, 7), strict=True):
+        rec["metrics"] = {"n_clipped_steps": n}
+    doc["summary"] = summarize(doc["episodes"])
+    assert (doc["summary"]["clipped_steps"], doc["summary"]["episodes_clipped"]) == (7, 1)
+    rows = {q: (d, r, c) for q, d, r, c in table_rows(doc)}
+    assert rows["episodes with clipped targets (steps)"] == ("–", "1 (7)", "")
 
 
 def test_cli_report_writes_markdown_and_plots(tmp_path, capsys):
