@@ -69,6 +69,7 @@ def auto_weights(streams: Sequence[Stream], config: SegmentationConfig | None = 
 
 def reweighted(streams: Sequence[Stream], weights: Mapping[str, float]) -> list[Stream]:
     """The same streams with the given weights (a missing name is an error)."""
+    streams = stream_list(streams, "reweighted")
     missing = [s.name for s in streams if s.name not in weights]
     if missing:
         raise ValueError(f"no weight given for streams {missing}")

@@ -75,6 +75,8 @@ def test_reweighted_feeds_segment_streams() -> None:
         reweighted(s, {"clean": 1.0})
     with pytest.raises(ValueError, match="unknown streams"):
         reweighted(s, {**w, "ghost": 1.0})
+    with pytest.raises(ValueError, match="reweighted takes Stream objects, got ndarray"):
+        reweighted([np.zeros(10)], {})
 
 
 def test_auto_weights_takes_stream_objects() -> None:
