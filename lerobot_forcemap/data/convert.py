@@ -492,11 +492,10 @@ def _gbti_key(key: GbtiKey | str, name: str) -> GbtiKey:
 
 
 def _gbti_key_arg(text: str) -> GbtiKey:
+    # argparse names the flag with an ArgumentTypeError's text; a ValueError's it replaces by "invalid value"
     try:
         return GbtiKey.parse(text)
-    except (
-        ValueError
-    ) as err:  # argparse names the flag for an ArgumentTypeError (and hides a ValueError's text)
+    except ValueError as err:
         raise argparse.ArgumentTypeError(str(err)) from None
 
 
