@@ -45,7 +45,10 @@ def _float_array(name: str, field: str, data: object, shape: str) -> np.ndarray:
     """``np.asarray(data, float64)``; numpy's conversion error (strings, ragged lists) names neither the
     stream nor the argument, so it is raised again under both."""
     try:
-        return np.asarray(data, dtype=np.float64)
+        array = np.asarray(data)
+        if array.dtype.kind == "c":  # float64 would drop the imaginary part with only a ComplexWarning
+            raise ValueError(f"got complex numbers ({array.dtype})")
+        return array.astype(np.float64, copy=False)
     except (TypeError, ValueError) as err:
         raise ValueError(f"stream {name!r}: {field} must be numbers of shape {shape}; {err}") from None
 

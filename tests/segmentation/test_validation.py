@@ -219,6 +219,7 @@ def test_n_pass_above_n_samples_only_matters_in_sample_mode() -> None:
         (np.array(["a"] * 10), "could not convert string to float"),
         ([[1.0, 2.0], [3.0]] + [[0.0, 0.0]] * 8, "inhomogeneous"),
         ([{"t": 1.0}] * 10, "dict"),
+        (np.arange(10) * (1 + 1j), r"got complex numbers \(complex128\)"),  # not cast to real with a warning
     ],
 )
 def test_unconvertible_values_and_times_name_the_stream(field: str, data, numpy_says: str) -> None:
