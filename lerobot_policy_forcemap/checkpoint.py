@@ -141,7 +141,7 @@ def check_skill_values(arrays: dict[str, np.ndarray], config: ForceMapConfig, so
 PROCESSOR_FILES = ("policy_preprocessor.json", "policy_postprocessor.json")
 
 
-def check_processor_files(folder: str | Path, *, required: bool) -> None:
+def check_processor_files(folder: str | Path, *, required: bool, warn_missing: bool = True) -> None:
     """Raise ``ValueError`` naming the file unless the processor pipelines in ``folder`` are readable.
 
     LeRobot reports a truncated state file as a bare ``SafetensorError`` and a broken pipeline JSON as a
@@ -150,7 +150,8 @@ def check_processor_files(folder: str | Path, *, required: bool) -> None:
     step, so a pipeline file could run any importable callable: steps must name a registered processor
     (``"registry_name"``) or a ``ProcessorStep`` class of LeRobot or this plugin.
     ``required``: whether the pipelines must be there (``lerobot-eval``/``forcemap eval``/``push`` load
-    them; ``ForceMapPolicy.from_pretrained`` alone does not).
+    them; ``ForceMapPolicy.from_pretrained`` alone does not). ``warn_missing``: warn about a missing
+    optional pipeline (off where :func:`fetch_hub_checkpoint` already said why it is missing).
     """
     from safetensors import SafetensorError, safe_open
 
@@ -163,8 +164,9 @@ def check_processor_files(folder: str | Path, *, required: bool) -> None:
                     f"{path}: file not found (a checkpoint saved by lerobot-train or forcemap fit has "
                     f"{' and '.join(PROCESSOR_FILES)} next to config.json)"
                 )
-            # lerobot-eval would call this a checkpoint "requiring migration" without naming the file
-            logger.warning("%s: file not found; lerobot-eval needs it to run this policy", path)
+            if warn_missing:
+                # lerobot-eval would call this a checkpoint "requiring migration" without naming the file
+                logger.warning("%s: file not found; lerobot-eval needs it to run this policy", path)
             continue
         steps = read_json_object(path).get("steps")
         if not isinstance(steps, list):
@@ -263,6 +265,10 @@ def fetch_hub_checkpoint(repo_id: str, hub_kwargs: dict) -> Path:
             return None
         except EntryNotFoundError as err:
             if not required:
+                if filename in PROCESSOR_FILES:  # a missing state file is an error of the checks that follow
+                    logger.warning(
+                        "%s: the repo has no %s; lerobot-eval needs it to run this policy", repo_id, filename
+                    )
                 return None
             raise ValueError(
                 f"{repo_id}: the repo has no {filename} (a forcemap checkpoint holds "

@@ -196,7 +196,8 @@ class ForceMapPolicy(PreTrainedPolicy):
     ):  # noqa: D102
         """LeRobot's loader with clear errors: the failing file and field are named."""
         path = Path(str(pretrained_name_or_path))
-        if not path.is_dir():
+        from_hub = not path.is_dir()
+        if from_hub:
             # a Hub repo id: fetch the files, then check them as a local folder is checked
             _check_repo_id_shape(pretrained_name_or_path)
             hub_kwargs = {k: kwargs[k] for k in _HUB_KWARGS if k in kwargs}
@@ -213,7 +214,8 @@ class ForceMapPolicy(PreTrainedPolicy):
             raise ValueError(
                 f"{where}: policy type {getattr(config, 'type', type(config).__name__)!r} is not 'forcemap'"
             )
-        check_processor_files(path, required=False)  # lerobot-eval reads these next, naming no file
+        # lerobot-eval reads these next, naming no file (a missing one from the Hub was reported by the fetch)
+        check_processor_files(path, required=False, warn_missing=not from_hub)
         return super().from_pretrained(pretrained_name_or_path, config=config, **kwargs)
 
     @classmethod

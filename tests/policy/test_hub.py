@@ -148,6 +148,38 @@ def test_an_offline_cache_without_the_weights_names_the_file(press_checkpoint, h
             ForceMapPolicy.from_pretrained(REPO)
 
 
+def test_a_hub_checkpoint_without_a_pipeline_is_reported_once(press_checkpoint, hub, caplog):
+    """Missing from the repo, or from an offline cache: one warning saying which and why (the fetch's),
+    not a second one about the same file in the cache folder."""
+    from huggingface_hub.errors import LocalEntryNotFoundError
+
+    (_upload(press_checkpoint, hub) / "policy_postprocessor.json").unlink()
+    with caplog.at_level("WARNING", logger="lerobot_policy_forcemap.checkpoint"):
+        ForceMapPolicy.from_pretrained(REPO)
+    assert [r.getMessage() for r in caplog.records if "policy_postprocessor.json" in r.getMessage()] == [
+        f"{REPO}: the repo has no policy_postprocessor.json; lerobot-eval needs it to run this policy"
+    ]
+    caplog.clear()
+    _upload(press_checkpoint, hub, "someone/cached")
+    serve = hub.download
+
+    def cache(repo_id, filename, **kw):
+        if filename == "policy_preprocessor.json":
+            raise LocalEntryNotFoundError("An error happened while trying to locate the file on the Hub")
+        return serve(repo_id, filename, **kw)
+
+    with (
+        mock.patch("huggingface_hub.is_offline_mode", return_value=True),
+        mock.patch("lerobot_policy_forcemap.checkpoint.hf_hub_download", side_effect=cache),
+        caplog.at_level("WARNING", logger="lerobot_policy_forcemap.checkpoint"),
+    ):
+        ForceMapPolicy.from_pretrained("someone/cached")
+    messages = [r.getMessage() for r in caplog.records if "policy_preprocessor.json" in r.getMessage()]
+    assert (
+        len(messages) == 1 and "someone/cached: policy_preprocessor.json is not in the local" in messages[0]
+    )
+
+
 def test_forcemap_push_cli_sends_a_loadable_policy(press_checkpoint, tmp_path, hub, capsys):
     """``forcemap push --policy``: config, weights, both processors, the fit report and a card in one
     commit to one model repo, loadable back."""
