@@ -457,16 +457,17 @@ def convert_recordings(
     paths = [Path(p) for p in paths]
     if not paths:
         raise ValueError("no input files")
-    seen: dict[Path, Path] = {}
+    seen: dict[tuple[int, int], Path] = {}
     for p in paths:
         if not p.is_file():
             raise ValueError(f"input file not found: {p}")
-        # the same recording twice would be two identical episodes (like a GBTI key given twice)
-        if p.resolve() in seen:
-            raise ValueError(
-                f"input file given more than once: {seen[p.resolve()]} and {p} are the same file"
-            )
-        seen[p.resolve()] = p
+        # the same recording twice would be two identical episodes (like a GBTI key given twice); device
+        # and inode, not the resolved path, so a hard link is the same file too
+        stat = p.stat()
+        file_id = (stat.st_dev, stat.st_ino)
+        if file_id in seen:
+            raise ValueError(f"input file given more than once: {seen[file_id]} and {p} are the same file")
+        seen[file_id] = p
     _refuse_output_holding_inputs(out, paths)
 
     def sources():

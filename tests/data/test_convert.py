@@ -314,14 +314,15 @@ def test_an_input_given_twice_is_refused(tmp_path, monkeypatch):
     good = write_recorder_file(tmp_path / "press_0.h5", make_streams(n=100))
     (tmp_path / "sub").mkdir()
     monkeypatch.chdir(tmp_path / "sub")
-    for twice in ([good, good], [good, "../press_0.h5"]):
+    (tmp_path / "sub" / "linked.h5").hardlink_to(good)
+    for twice in ([good, good], [good, "../press_0.h5"], [good, "linked.h5"]):
         with pytest.raises(
             ValueError,
             match=rf"input file given more than once: {re.escape(str(good))} and {re.escape(str(twice[1]))} "
             "are the same file",
         ):
             convert_recordings(twice, tmp_path / "out", fps=20, progress=False)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["press_0.h5", "sub"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["press_0.h5", "sub"]  # no output written
 
 
 def test_gbti_read_errors_name_episode_and_file(tmp_path):
