@@ -27,6 +27,8 @@ DEFAULT_DATASET = REPO_ROOT / "datasets" / "press"
 
 
 def main(argv: list[str] | None = None) -> int:
+    from .fit import add_set_argument
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="outputs/demo")
     parser.add_argument("--dataset", default=str(DEFAULT_DATASET))
@@ -34,14 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--episodes", type=int, default=20, help="evaluation episodes (default 20)")
     parser.add_argument("--seed", type=int, default=1000, help="first evaluation seed (default 1000)")
     parser.add_argument("--demo-episode", type=int, default=0, help="the one demonstration to learn from")
-    parser.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="FIELD=VALUE",
-        help="ForceMapConfig field (as forcemap fit --set)",
-    )
+    add_set_argument(parser)
     args = parser.parse_args(argv)
 
     t_start = time.perf_counter()

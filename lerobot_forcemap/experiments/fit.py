@@ -117,15 +117,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--episodes", type=int, nargs="+", default=None, help="episodes to learn from (default: 0)"
     )
+    add_set_argument(parser)
+    parser.add_argument("--overwrite", action="store_true", help="replace a non-empty --out")
+
+
+def add_set_argument(parser: argparse.ArgumentParser) -> None:
+    """``--set FIELD=VALUE ...`` into ``args.overrides``: several per flag, and the flag repeated (both add)."""
     parser.add_argument(
         "--set",
         dest="overrides",
-        action="append",
+        action="extend",
+        nargs="+",
         default=[],
         metavar="FIELD=VALUE",
-        help="ForceMapConfig field, as lerobot-train's --policy.FIELD (e.g. --set stiffness=2500 --set segments=none)",
+        help="ForceMapConfig fields, as lerobot-train's --policy.FIELD (e.g. --set stiffness=2500 segments=none)",
     )
-    parser.add_argument("--overwrite", action="store_true", help="replace a non-empty --out")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -59,7 +59,9 @@ def test_make_env_and_preprocess_observation_deliver_force():
         assert obs["force"][:, 2].min() > 20.0  # reaction on the robot: up
         assert vec.call("_max_episode_steps") == (200, 200)
         assert vec.call("task_description")[0].startswith("Press")
-        assert vec.metadata["render_fps"] == 20 and isinstance(vec.metadata["render_fps"], int)  # PyAV needs an int
+        assert vec.metadata["render_fps"] == 20 and isinstance(
+            vec.metadata["render_fps"], int
+        )  # PyAV needs an int
         frame = vec.call("render")[0]
         assert frame.dtype == np.uint8 and frame.shape == (256, 256, 3)
         assert "is_success" in info and "max_contact_force" in info

@@ -140,7 +140,9 @@ def test_learned_records_show_lerobot_evals_success(tmp_path):
 def test_table2_and_grasp_tables_give_spreads_of_their_extra_columns():
     rec = {**_t2("erase", "ours", -40.0, -33.0, 1.0, coverage=0.95), "label": "ours", "n": 20}
     rec["metric_stds"] = {"coverage": 0.025}
-    rec["change_vs_demo"] = {k: {"mean": -40.0, "std": 1.0} for k in ("max_contact_force", "mean_contact_force")}
+    rec["change_vs_demo"] = {
+        k: {"mean": -40.0, "std": 1.0} for k in ("max_contact_force", "mean_contact_force")
+    }
     assert "| 0.950 ± 0.025 |" in "\n".join(report.table2_md([rec], "erase"))
     grasp = {
         "experiment": "grasp", "task": "grasp_push", "object": "book", "seen": True, "label": "ours", "n": 20,

@@ -56,9 +56,8 @@ def test_cli_fit_settings_and_episodes(press_dataset, tmp_path):
         "0",
         "1",
         "2",
-        "--set",
+        "--set",  # several settings after one --set, and --set repeated
         "segments=dataset",
-        "--set",
         "segment_column=demo_phase",
         "--set",
         "stiffness=2500",
