@@ -193,6 +193,19 @@ def test_gbti_synthetic_all_demos(tmp_path):
     ds = load(tmp_path / "ds")
     check_round_trip(ds, [r for _, r in iter_gbti_demos(path)], 20, finger=True)
 
+    # against the synthetic truth (check_round_trip replays the converter's own transforms): raw finger
+    # counts interpolated as they are, the gripper reading over its full scale of 100
+    for e in range(3):
+        truth = make_streams(n=120 + 10 * e, seed=e, finger=True)
+        rows = columns(ds, "episode_index") == e
+        t = np.arange(rows.sum()) / 20.0
+        truth_t = np.arange(len(truth["finger"])) / 100.0
+        finger = columns(ds, layout.OBS_FINGER_FORCE)[rows].reshape(-1)
+        np.testing.assert_allclose(finger, np.interp(t, truth_t, truth["finger"]), atol=1e-3)
+        assert finger.min() == 370.0 and finger.max() == 670.0  # the step's two levels, untared
+        state = columns(ds, layout.OBS_STATE)[rows]
+        np.testing.assert_allclose(state[:, 6], np.interp(t, truth_t, truth["gripper"] / 100.0), atol=1e-6)
+
 
 def test_bad_inputs_name_field_episode_and_frame(tmp_path):
     st = make_streams(n=100)

@@ -8,6 +8,7 @@ import pytest
 
 from lerobot_forcemap.data.recorder import GbtiKey, gbti_keys, iter_gbti_demos, read_recording
 
+from ..ur5e_reference import flange_transform
 from .synthetic import T0_EPOCH, make_streams, write_gbti_file, write_recorder_file
 
 
@@ -137,31 +138,12 @@ def test_real_gbti_has_60_demos_with_finger_force(shared_data):
     assert len(rec.joint_time) == 941 and rec.finger_force is not None and len(rec.finger_force) == 941
 
 
-def _ur5e_flange_position(q: np.ndarray) -> np.ndarray:
-    """UR5e forward kinematics (published DH parameters), q (6,) in kinematic order -> flange xyz."""
-    d = (0.1625, 0.0, 0.0, 0.1333, 0.0997, 0.0996)
-    a = (0.0, -0.425, -0.3922, 0.0, 0.0, 0.0)
-    alpha = (np.pi / 2, 0.0, 0.0, np.pi / 2, -np.pi / 2, 0.0)
-    T = np.eye(4)
-    for i in range(6):
-        ct, st, ca, sa = np.cos(q[i]), np.sin(q[i]), np.cos(alpha[i]), np.sin(alpha[i])
-        T = T @ np.array(
-            [
-                [ct, -st * ca, st * sa, a[i] * ct],
-                [st, ct * ca, -ct * sa, a[i] * st],
-                [0, sa, ca, d[i]],
-                [0, 0, 0, 1],
-            ]
-        )
-    return T[:3, 3]
-
-
 @pytest.mark.parametrize("fname", ["press_2023-07-27_160905.h5", "three_button_press.h5"])
 def test_joint_order_is_kinematic(shared_data, fname):
     """Reordered joints reproduce the recorded flange position by forward kinematics (< 2 mm)."""
     rec = read_recording(shared_data / "ur5e" / fname)
     idx = np.linspace(0, len(rec.joint_time) - 1, 15).astype(int)
-    fk = np.array([_ur5e_flange_position(rec.joint_positions[i]) for i in idx])
+    fk = np.array([flange_transform(rec.joint_positions[i])[:3, 3] for i in idx])
     assert np.abs(fk - rec.positions[idx]).max() < 0.002
 
 

@@ -11,25 +11,9 @@ from lerobot_forcemap.envs.robots.parallel_gripper import (
     STROKE,
     parallel_gripper_closure_qpos,
 )
-from lerobot_forcemap.envs.robots.ur5e import DH_A, DH_ALPHA, DH_D, LINK_MASS, build_ur5e_arm
+from lerobot_forcemap.envs.robots.ur5e import build_ur5e_arm
 
-
-def dh_fk(q):
-    """Standard DH product (Universal Robots' table): base -> flange, 4x4."""
-    T = np.eye(4)
-    for i, th in enumerate(q):
-        ct, st = math.cos(th), math.sin(th)
-        ca, sa = math.cos(DH_ALPHA[i]), math.sin(DH_ALPHA[i])
-        A = np.array(
-            [
-                [ct, -st * ca, st * sa, DH_A[i] * ct],
-                [st, ct * ca, -ct * sa, DH_A[i] * st],
-                [0, sa, ca, DH_D[i]],
-                [0, 0, 0, 1],
-            ]
-        )
-        T = T @ A
-    return T
+from ..ur5e_reference import LINK_MASS, flange_transform
 
 
 def test_ur5e_flange_matches_published_dh_kinematics():
@@ -41,7 +25,7 @@ def test_ur5e_flange_matches_published_dh_kinematics():
         q = rng.uniform(-math.pi, math.pi, 6)
         data.qpos[:] = q
         mujoco.mj_kinematics(model, data)
-        T = dh_fk(q)
+        T = flange_transform(q)
         np.testing.assert_allclose(data.site_xpos[flange], T[:3, 3], atol=1e-12)
         np.testing.assert_allclose(data.site_xmat[flange].reshape(3, 3), T[:3, :3], atol=1e-12)
 

@@ -99,7 +99,7 @@ def test_split_seeds_deals_every_seed_once_over_every_demo():
     assert all(len(v) == 2 for v in out.values()) and set(out) == set(range(10))
     assert out[3] == (1003, 1013)
     assert split_seeds([5, 6], [0, 1, 2]) == {0: (5,), 1: (6,)}
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="split_seeds: no demos"):
         split_seeds([1], [])
 
 

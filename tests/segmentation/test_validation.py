@@ -208,8 +208,29 @@ def test_config_validation(kwargs: dict, message: str) -> None:
 
 
 def test_n_pass_above_n_samples_only_matters_in_sample_mode() -> None:
-    SegmentationConfig(changepoints="peaks", n_samples=2, n_pass=5)  # peaks mode draws nothing
-    SegmentationConfig(changepoints="sample", n_samples=5, n_pass=5)  # all draws in one window
+    values, times = event_stream(600)
+    streams = [Stream("arm", values, times)]
+    peaks = SegmentationConfig(changepoints="peaks", n_samples=2, n_pass=5, window=32, min_run=32)
+    default_peaks = SegmentationConfig(changepoints="peaks", window=32, min_run=32)
+    # peaks mode draws nothing: the two fields change nothing there
+    assert (
+        segment_streams(streams, peaks).changepoints.tolist()
+        == segment_streams(streams, default_peaks).changepoints.tolist()
+    )
+    # sample mode, same seed (same draws, same groups): a stricter n_pass, up to n_pass == n_samples,
+    # keeps a subset of the candidates (before the minimum segment length, which sees their neighbours)
+    kept = [
+        set(
+            segment_streams(
+                streams,
+                SegmentationConfig(
+                    changepoints="sample", n_samples=5, n_pass=k, window=32, min_run=32, seed=0
+                ),
+            ).candidates.tolist()
+        )
+        for k in (1, 3, 5)
+    ]
+    assert kept[0] >= kept[1] >= kept[2] and kept[0] != kept[2]  # and n_pass does filter
 
 
 @pytest.mark.parametrize("field", ["values", "times"])
