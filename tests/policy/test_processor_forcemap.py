@@ -39,7 +39,12 @@ def test_resolved_by_lerobot_and_identity(press_checkpoint):
     assert out["observation.state"].shape == (1, 7)
     # LeRobot batches state / environment_state only; the policy reads the 1-D ee_pose as one row
     policy.reset()
-    assert policy.select_action(out).shape == (1, 8)
+    first = policy.select_action(out)
+    assert first.shape == (1, 8)
+    # the reproduction starts where the robot is (start re-anchored to observation.ee_pose)
+    torch.testing.assert_close(
+        first[0, :3].double(), _obs()["observation.ee_pose"][:3].double(), atol=1e-6, rtol=0
+    )
     action = torch.tensor([[0.5, 0.0, 0.02, 0.0, 1.0, 0.0, 0.0, 1.0]])
     torch.testing.assert_close(post(action), action, rtol=0, atol=0)
 
