@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import shutil
 from pathlib import Path
@@ -127,14 +128,15 @@ def test_a_hub_checkpoint_gets_the_local_checks(press_checkpoint, hub):
         ForceMapPolicy.from_pretrained("someone/other")
 
 
-def test_an_offline_cache_without_the_weights_names_the_file(press_checkpoint, hub):
+@contextlib.contextmanager
+def _offline_cache_without(hub, missing: str):
+    """HF_HUB_OFFLINE, and a local cache holding every file of the repos but ``missing``."""
     from huggingface_hub.errors import LocalEntryNotFoundError
 
-    _upload(press_checkpoint, hub)
     serve = hub.download
 
     def cache(repo_id, filename, **kw):
-        if filename == "model.safetensors":
+        if filename == missing:
             raise LocalEntryNotFoundError("An error happened while trying to locate the file on the Hub")
         return serve(repo_id, filename, **kw)
 
@@ -142,6 +144,12 @@ def test_an_offline_cache_without_the_weights_names_the_file(press_checkpoint, h
         mock.patch("huggingface_hub.is_offline_mode", return_value=True),
         mock.patch("lerobot_policy_forcemap.checkpoint.hf_hub_download", side_effect=cache),
     ):
+        yield
+
+
+def test_an_offline_cache_without_the_weights_names_the_file(press_checkpoint, hub):
+    _upload(press_checkpoint, hub)
+    with _offline_cache_without(hub, "model.safetensors"):
         with pytest.raises(
             ValueError, match=rf"{REPO}: model\.safetensors is not in the local Hugging Face cache"
         ):
@@ -151,8 +159,6 @@ def test_an_offline_cache_without_the_weights_names_the_file(press_checkpoint, h
 def test_a_hub_checkpoint_without_a_pipeline_is_reported_once(press_checkpoint, hub, caplog):
     """Missing from the repo, or from an offline cache: one warning saying which and why (the fetch's),
     not a second one about the same file in the cache folder."""
-    from huggingface_hub.errors import LocalEntryNotFoundError
-
     (_upload(press_checkpoint, hub) / "policy_postprocessor.json").unlink()
     with caplog.at_level("WARNING", logger="lerobot_policy_forcemap.checkpoint"):
         ForceMapPolicy.from_pretrained(REPO)
@@ -161,16 +167,8 @@ def test_a_hub_checkpoint_without_a_pipeline_is_reported_once(press_checkpoint, 
     ]
     caplog.clear()
     _upload(press_checkpoint, hub, "someone/cached")
-    serve = hub.download
-
-    def cache(repo_id, filename, **kw):
-        if filename == "policy_preprocessor.json":
-            raise LocalEntryNotFoundError("An error happened while trying to locate the file on the Hub")
-        return serve(repo_id, filename, **kw)
-
     with (
-        mock.patch("huggingface_hub.is_offline_mode", return_value=True),
-        mock.patch("lerobot_policy_forcemap.checkpoint.hf_hub_download", side_effect=cache),
+        _offline_cache_without(hub, "policy_preprocessor.json"),
         caplog.at_level("WARNING", logger="lerobot_policy_forcemap.checkpoint"),
     ):
         ForceMapPolicy.from_pretrained("someone/cached")
