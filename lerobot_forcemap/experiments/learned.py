@@ -348,11 +348,11 @@ def force_inputs_text(extras: Sequence[str] = DEFAULT_EXTRAS) -> str:
 
 
 def _mean_std(values: np.ndarray) -> dict[str, Any]:
-    from lerobot_forcemap.experiments.evaluate import to_json
+    from lerobot_forcemap.experiments.paper import sample_stats
 
     # sample std (ddof 1), as the experiments' tables report every other spread
-    std = values.std(axis=0, ddof=1) if len(values) > 1 else np.zeros_like(values[0])
-    return {"mean": to_json(values.mean(axis=0)), "std": to_json(std)}
+    stats = sample_stats(values)
+    return {"mean": stats["mean"], "std": stats["std"]}
 
 
 def result_document(

@@ -59,6 +59,7 @@ __all__ = [
     "fit_key",
     "fitted_checkpoint",
     "wilson_interval",
+    "sample_stats",
     "summarize_records",
     "force_by_gripper_phase",
     "demo_change",
@@ -630,7 +631,9 @@ def _t95(df: int) -> float:
     return float(t.ppf(0.975, df))
 
 
-def _stat(values: Array) -> dict[str, Any]:
+def sample_stats(values: Array) -> dict[str, Any]:
+    """``{mean, std (ddof 1; 0 for one value), ci95 (t half-width; NaN for one value), min, max}`` over the
+    first axis of ``values`` (per column for vectors), as plain JSON numbers."""
     v = np.asarray(values, dtype=np.float64)
     n = len(v)
     mean = v.mean(axis=0)
@@ -679,7 +682,7 @@ def summarize_records(records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     for key in (*FORCE_KEYS, *FINGER_KEYS):
         vals = [r[key] for r in records if key in r]
         if len(vals) == n:
-            out[key] = _stat(np.asarray(vals, dtype=np.float64))
+            out[key] = sample_stats(vals)
     return out
 
 
@@ -709,13 +712,7 @@ def demo_change(
     out = {
         "per_demo": {str(d): v for d, v in per.items()},
         "n_demos": len(vals),
-        "mean": float(vals.mean()),
-        "std": float(vals.std(ddof=1)) if len(vals) > 1 else 0.0,
-        "ci95": float(_t95(len(vals) - 1) * vals.std(ddof=1) / math.sqrt(len(vals)))
-        if len(vals) > 1
-        else float("nan"),
-        "min": float(vals.min()),
-        "max": float(vals.max()),
+        **sample_stats(vals),
         "pooled": float(100.0 * (rep_all / demo_all - 1.0)) if demo_all > 0 else float("nan"),
     }
     return out
