@@ -47,6 +47,7 @@ from lerobot_forcemap.segmentation import (
     Stream,
     segment_streams,
 )
+from lerobot_forcemap.segmentation.config import CHANGEPOINT_METHODS, MODES
 
 __all__ = [
     "STREAM_THRESHOLDS",
@@ -459,14 +460,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--mode",
-        choices=["product", "geometric", "linear"],
+        choices=MODES,
         default="geometric",
         help="how the streams' keypoint densities combine: geometric (default, weighted sum of logs), "
         "product (of the streams with weight > 0; weights only select) or linear (weighted mean)",
     )
     parser.add_argument(
         "--changepoints",
-        choices=["peaks", "sample"],
+        choices=CHANGEPOINT_METHODS,
         default="peaks",
         help="peaks (default, deterministic: maxima of the combined density at least --window frames "
         "apart) or sample (the paper: random draws from it, clustered; see --seed)",
