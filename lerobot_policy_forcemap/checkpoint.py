@@ -139,6 +139,8 @@ def check_skill_values(arrays: dict[str, np.ndarray], config: ForceMapConfig, so
 
 #: LeRobot's pre-/post-processor pipelines saved next to the policy (``make_pre_post_processors`` reads them)
 PROCESSOR_FILES = ("policy_preprocessor.json", "policy_postprocessor.json")
+#: processor steps whose state file holds dataset statistics keyed '<feature>.<statistic>'
+STATS_STEPS = ("normalizer_processor", "unnormalizer_processor")
 
 
 def check_processor_files(folder: str | Path, *, required: bool, warn_missing: bool = True) -> None:
@@ -185,10 +187,20 @@ def check_processor_files(folder: str | Path, *, required: bool, warn_missing: b
                 raise ValueError(f"{state}: file not found ({path} steps[{i}] needs it)")
             try:
                 with safe_open(str(state), framework="pt") as f:
-                    for key in f.keys():  # noqa: SIM118
+                    keys = list(f.keys())
+                    for key in keys:
                         f.get_slice(key)
             except (SafetensorError, OSError, ValueError) as err:
                 raise ValueError(f"{state}: not a readable safetensors file ({err})") from err
+            if step.get("registry_name") in STATS_STEPS:
+                # LeRobot splits each key at its last '.' into feature and statistic, failing on any other
+                # key with an unpacking error that names neither the file nor the key
+                bad = [k for k in keys if not all(k.rpartition(".")[::2])]
+                if bad:
+                    raise ValueError(
+                        f"{state}: tensor {bad[0]!r} is not named '<feature>.<statistic>' (e.g. 'action.mean'), "
+                        f"as the {step['registry_name']} state of {path} steps[{i}] must be"
+                    )
 
 
 #: modules a pipeline step's ``"class"`` may come from (imported to check the class; nothing else is)

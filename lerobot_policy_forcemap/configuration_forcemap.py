@@ -344,9 +344,18 @@ class ForceMapConfig(PreTrainedConfig):
             "stream_weights",
             f"unknown stream(s) {unknown}; known {sorted(DEFAULT_STREAM_WEIGHTS)}",
         )
-        need(all(v >= 0 for v in self.stream_weights.values()), "stream_weights", "weights must be >= 0")
+        need(
+            all(v == 0 or _positive_finite(v) for v in self.stream_weights.values()),
+            "stream_weights",
+            "weights must be finite numbers >= 0",
+        )
         unknown = sorted(set(self.stream_thresholds) - set(DEFAULT_STREAM_THRESHOLDS))
         need(not unknown, "stream_thresholds", f"unknown stream(s) {unknown}")
+        need(
+            all(_positive_finite(v) and v <= 1 for v in self.stream_thresholds.values()),
+            "stream_thresholds",
+            "each a fraction in (0, 1] of its stream's maximum smoothed jerk",
+        )
         # checked here, not first when the dataset is segmented, and under this config's field names
         need(self.segmentation_mode in MODES, "segmentation_mode", f"must be one of {MODES}")
         need(

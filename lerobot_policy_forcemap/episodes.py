@@ -238,7 +238,19 @@ def episodes_from_columns(
             _check_finite(config.joints_key, e, joints, frames)
         labels = None
         if config.segment_column in columns:
-            labels = np.asarray(columns[config.segment_column])[rows].reshape(-1).astype(np.int64)
+            raw = np.asarray(columns[config.segment_column])[rows].reshape(-1)
+            where = f"feature {config.segment_column!r}, episode {int(e)}"
+            if raw.dtype.kind not in "iubf":
+                raise ValueError(f"{where}: segment labels must be integers, got dtype {raw.dtype}")
+            if raw.dtype.kind == "f":
+                _check_finite(config.segment_column, e, raw, frames)
+                # a fractional label would be truncated into its neighbour, merging two segments unseen
+                if (fractional := raw != np.round(raw)).any():
+                    k = int(np.argmax(fractional))
+                    raise ValueError(
+                        f"{where}, frame {int(frames[k])}: segment label {raw[k].item()!r} is not an integer"
+                    )
+            labels = raw.astype(np.int64)
         out.append(
             EpisodeArrays(
                 episode=int(e),

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 import torch
+from huggingface_hub.constants import SAFETENSORS_SINGLE_FILE
 from lerobot.policies.pretrained import PreTrainedPolicy
 from torch import Tensor, nn
 
@@ -214,6 +215,9 @@ class ForceMapPolicy(PreTrainedPolicy):
             raise ValueError(
                 f"{where}: policy type {getattr(config, 'type', type(config).__name__)!r} is not 'forcemap'"
             )
+        # the policy's buffers are allocated from config.json's node counts before LeRobot reads the weights:
+        # check the weights' header against them first, so a tampered count is an error, not a huge allocation
+        check_safetensors_file(path / SAFETENSORS_SINGLE_FILE, config)
         # lerobot-eval reads these next, naming no file (a missing one from the Hub was reported by the fetch)
         check_processor_files(path, required=False, warn_missing=not from_hub)
         return super().from_pretrained(pretrained_name_or_path, config=config, **kwargs)
@@ -223,7 +227,6 @@ class ForceMapPolicy(PreTrainedPolicy):
         from lerobot.utils.device_utils import resolve_safetensors_device
         from safetensors.torch import load_model
 
-        check_safetensors_file(model_file, model.config)
         load_model(model, model_file, strict=True, device=resolve_safetensors_device(map_location))
         arrays = {name: model.get_buffer(name).detach().cpu().numpy() for name in SKILL_TENSORS}
         # the dummy's value is never used to act, but lerobot-train --policy.path would log its NaN loss

@@ -247,7 +247,7 @@ def _read_group(g: h5py.Group, name: str) -> Recording:
 
     gripper_time = gripper = ff_time = ff = None
     if "gripper_info" in g:
-        gi = g["gripper_info"]
+        gi = _group(g, "gripper_info", name)
         if "gripper_position" in gi and "gripper_vals" in gi:  # no documented precedence: do not guess
             raise ValueError(
                 f"recording {name!r}: 'gripper_info' holds both 'gripper_position' (lab recorder) and "
@@ -267,6 +267,11 @@ def _read_group(g: h5py.Group, name: str) -> Recording:
             )
         gripper = _array(gi, key, name, None)
         gripper_time = _times(gi, "gripper_time", name, len(gripper))
+        if "force_time" in gi and "forces" not in gi:
+            raise ValueError(
+                f"recording {name!r}: 'gripper_info' has 'force_time' but no 'forces' (the finger force is "
+                "missing; without it this demonstration would convert without finger force)"
+            )
         if "forces" in gi:
             ff = _array(gi, "forces", name, None)
             ff_time = _times(gi, "force_time", name, len(ff))

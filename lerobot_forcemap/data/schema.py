@@ -135,6 +135,17 @@ def _where(episode: int | str | None, frame: int | None) -> str:
     return ", ".join(parts) if parts else "frame"
 
 
+def _unrepresentable(arr: np.ndarray, dtype: str) -> np.ndarray:
+    """Mask of the values ``arr.astype(dtype)`` would not keep: float overflow to inf, integer wrap-around."""
+    target = np.dtype(dtype)
+    if target.kind == "f" and arr.dtype.kind in "fiu":
+        return np.abs(arr.astype(np.float64)) > np.finfo(target).max
+    if target.kind in "iu" and arr.dtype.kind in "iu":
+        info = np.iinfo(target)
+        return (arr < info.min) | (arr > info.max)
+    return np.zeros(arr.shape, dtype=bool)
+
+
 def validate_frame(
     frame: Mapping[str, Any],
     features: Mapping[str, Mapping[str, Any]],
@@ -184,6 +195,13 @@ def validate_frame(
             raise ValueError(f"{where}: {key!r} is not finite at component(s) {col}")
         if np.dtype(ft["dtype"]).kind in "iu" and arr.dtype.kind == "f":
             raise ValueError(f"{where}: {key!r} must be integer ({ft['dtype']}), got {arr.dtype}")
+        if (bad := _unrepresentable(arr, ft["dtype"]).reshape(-1)).any():
+            names = ft.get("names") or []
+            i = int(np.argmax(bad))
+            raise ValueError(
+                f"{where}: {key!r} component {names[i] if i < len(names) else i!r} = {arr.reshape(-1)[i].item()!r} "
+                f"does not fit the feature dtype {ft['dtype']}"
+            )
 
 
 def validate_episode_arrays(
@@ -242,12 +260,20 @@ def validate_episode_arrays(
         if arr.dtype.kind == "f":
             finite = np.isfinite(arr.reshape(arr.shape[0], -1))
             if not finite.all():
-                t, c = np.argwhere(~finite)[0]
+                t, c = (int(v) for v in np.argwhere(~finite)[0])
                 names = ft.get("names") or []
                 col = names[c] if c < len(names) else c
                 raise ValueError(f"{where}, frame {t}: {key!r} is not finite (component {col!r})")
             if np.dtype(ft["dtype"]).kind in "iu":
                 raise ValueError(f"{where}: {key!r} must be integer ({ft['dtype']}), got {arr.dtype}")
+        bad = _unrepresentable(arr, ft["dtype"]).reshape(arr.shape[0], -1)
+        if bad.any():
+            t, c = (int(v) for v in np.argwhere(bad)[0])
+            names = ft.get("names") or []
+            raise ValueError(
+                f"{where}, frame {t}: {key!r} component {names[c] if c < len(names) else c!r} = "
+                f"{arr.reshape(arr.shape[0], -1)[t, c].item()!r} does not fit the feature dtype {ft['dtype']}"
+            )
     if not n_frames:
         raise ValueError(f"{where}: empty episode (0 frames)")
     return int(n_frames)

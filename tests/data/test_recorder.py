@@ -160,6 +160,23 @@ def test_a_gripper_group_with_both_readings_is_refused(tmp_path):
         read_recording(path)
 
 
+def test_a_broken_gripper_group_is_named(tmp_path):
+    path = write_recorder_file(tmp_path / "flat.h5", make_streams(n=30))
+    with h5py.File(path, "a") as f:
+        del f["gripper_info"]
+        f.create_dataset("gripper_info", data=np.zeros(3))
+    with pytest.raises(ValueError, match=r"recording 'flat': 'gripper_info' is not a group"):
+        read_recording(path)
+    # finger-force timestamps without the forces: the finger force is missing, not silently dropped
+    path = write_recorder_file(tmp_path / "noforce.h5", make_streams(n=30))
+    with h5py.File(path, "a") as f:
+        f["gripper_info"].create_dataset("force_time", data=np.zeros((30, 2)))
+    with pytest.raises(
+        ValueError, match=r"recording 'noforce': 'gripper_info' has 'force_time' but no 'forces'"
+    ):
+        read_recording(path)
+
+
 def test_known_datasets_that_are_not_converted_are_listed(tmp_path):
     rec = read_recording(write_recorder_file(tmp_path / "demo.h5", make_streams(n=30)))
     assert rec.not_converted == ("joint_state_info/joint_velocities", "joint_state_info/joint_effort")

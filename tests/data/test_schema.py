@@ -97,6 +97,15 @@ def test_validate_frame_errors_name_key_episode_frame():
         validate_frame(frame, f, episode=0, frame_index=9)
 
     frame = good_frame(f)
+    frame[layout.OBS_FORCE] = np.zeros(6)
+    frame[layout.OBS_FORCE][1] = 1e39  # finite in float64, inf once cast to the feature's float32
+    with pytest.raises(
+        ValueError,
+        match=r"frame 9: 'observation.force' component 'fy' = .*1e\+39 does not fit the feature dtype float32",
+    ):
+        validate_frame(frame, f, episode=0, frame_index=9)
+
+    frame = good_frame(f)
     frame["timestamp"] = 0.0
     with pytest.raises(ValueError, match="unknown key.*added by LeRobot"):
         validate_frame(frame, f, episode=0, frame_index=0)
@@ -126,6 +135,19 @@ def test_validate_episode_arrays_reports_first_bad_frame():
     arrays[layout.ACTION] = np.zeros((n, 8))
     arrays[layout.SEGMENT_INDEX] = np.zeros(n)
     with pytest.raises(ValueError, match="'segment_index' must be integer"):
+        validate_episode_arrays(arrays, f, episode=4)
+    arrays[layout.SEGMENT_INDEX] = np.zeros(n, dtype=np.uint64)
+    arrays[layout.SEGMENT_INDEX][5] = 2**63  # would wrap to a negative int64
+    with pytest.raises(
+        ValueError,
+        match=r"episode 4, frame 5: 'segment_index' component 0 = .* does not fit the feature dtype int64",
+    ):
+        validate_episode_arrays(arrays, f, episode=4)
+    arrays[layout.SEGMENT_INDEX] = np.zeros(n, dtype=np.int64)
+    arrays[layout.OBS_FORCE][3, 2] = -1e39
+    with pytest.raises(
+        ValueError, match=r"episode 4, frame 3: 'observation.force' component 'fz' = .* does not fit"
+    ):
         validate_episode_arrays(arrays, f, episode=4)
 
 

@@ -69,6 +69,19 @@ def test_config_and_tensors_that_do_not_belong_together(ckpt):
         ForceMapPolicy.from_pretrained(ckpt)
 
 
+def test_absurd_node_count_is_refused_before_the_policy_is_built(ckpt):
+    """The buffers are sized from config.json: a tampered count must fail on the weights' header, not allocate."""
+    data = json.loads((ckpt / "config.json").read_text())
+    _edit_config(ckpt, segment_n_nodes=[10**10] + list(data["segment_n_nodes"])[1:])
+    with (
+        mock.patch.object(ForceMapPolicy, "__init__", side_effect=AssertionError("policy built")),
+        pytest.raises(
+            ValueError, match=r"model\.safetensors: tensor 'nodes' has shape .* segment_n_nodes=\[10000000000"
+        ),
+    ):
+        ForceMapPolicy.from_pretrained(ckpt)
+
+
 def test_missing_tensor(ckpt):
     tensors = load_file(ckpt / "model.safetensors")
     del tensors["durations"]
@@ -137,6 +150,10 @@ def test_non_finite_values(ckpt):
         (
             lambda p: (p / PRE_STATE).write_bytes((p / PRE_STATE).read_bytes()[:100]),
             rf"{PRE_STATE}: not a readable safetensors file",
+        ),
+        (
+            lambda p: save_file({"x": torch.zeros(2)}, p / PRE_STATE),
+            rf"{PRE_STATE}: tensor 'x' is not named '<feature>\.<statistic>'",
         ),
         (
             lambda p: (p / "policy_postprocessor.json").write_text("{oops"),

@@ -59,6 +59,26 @@ def test_nan_names_feature_episode_and_frame(columns):
         episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", episodes=[0, 1]))
 
 
+def test_fractional_segment_label_names_the_frame(columns):
+    """A label of 0.6 would truncate to 0 and merge two segments without a word."""
+    cols, feats = columns
+    rows = np.flatnonzero(cols["episode_index"] == 1)
+    cols["segment_index"] = cols["segment_index"].astype(np.float64)
+    cols["segment_index"][rows[9]] = 0.6
+    with pytest.raises(
+        ValueError, match=r"'segment_index', episode 1, frame 9: segment label 0.6 is not an integer"
+    ):
+        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", episodes=[0, 1]))
+    cols["segment_index"][rows[9]] = np.nan
+    with pytest.raises(ValueError, match=r"'segment_index', episode 1, frame 9: non-finite"):
+        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", episodes=[0, 1]))
+    cols["segment_index"][rows[9]] = 1.0  # whole numbers in a float column are fine
+    assert (
+        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", episodes=[1]))[0].segment_labels[9]
+        == 1
+    )
+
+
 def test_duplicated_timestamp_names_the_frame(columns):
     cols, feats = columns
     rows = np.flatnonzero(cols["episode_index"] == 0)
