@@ -16,6 +16,7 @@ from lerobot_forcemap.elmap import (
     solve_m_step_banded,
 )
 from lerobot_forcemap.elmap.fit import NearestNodeAssigner, arc_length_resample
+from lerobot_forcemap.elmap.timing import node_time_law
 
 from .helpers import line_demo, s_curve
 
@@ -356,6 +357,76 @@ def test_time_law_and_orientation():
     np.testing.assert_allclose(fit.position_at([0.0])[0], fit.nodes[0])
     np.testing.assert_allclose(fit.position_at([4.0])[0], fit.nodes[-1])
     assert fit.orientation_at([1.0, 2.0]).shape == (2, 4)
+
+
+def test_time_law_is_made_non_decreasing_on_an_out_and_back_path():
+    """SPEC §1 time law: mean cluster time "made non-decreasing" (a path that folds back over itself)."""
+    t = np.linspace(0.0, 1.0, 201)
+    x = np.zeros((201, 3))
+    x[:, 0] = np.where(t <= 0.5, 2 * t, 1 - 0.8 * (t - 0.5))  # out to 1 m, back to 0.6 m
+    fit = fit_force_elastic_map(x, n_nodes=20, times=4 * t)
+    counts = np.bincount(fit.labels, minlength=20)
+    raw = np.bincount(fit.labels, weights=t, minlength=20) / counts  # every cluster holds samples here
+    assert np.min(np.diff(raw)) < -0.05  # the raw cluster means run backwards where the path folds
+    assert np.all(np.diff(fit.node_times) >= 0)
+    np.testing.assert_allclose(fit.node_times, 4 * np.maximum.accumulate(raw), rtol=0, atol=1e-12)
+
+
+def test_time_law_interpolates_empty_clusters():
+    """SPEC §1 time law: "empty clusters interpolate" between the neighbouring clusters' mean times."""
+    labels = np.array([0, 0, 1, 4, 4])  # nodes 2 and 3 hold no sample
+    u = np.array([0.0, 0.2, 0.3, 0.85, 0.95])  # cluster means 0.1, 0.3, -, -, 0.9
+    times = node_time_law(labels, u, n_nodes=5, duration=2.0)
+    np.testing.assert_allclose(times, 2.0 * np.array([0.1, 0.3, 0.5, 0.7, 0.9]), rtol=0, atol=1e-12)
+
+
+# ---- stop reasons and the initial map
+
+
+def test_energy_tol_stops_at_the_first_small_relative_energy_change():
+    """SPEC §1 EM: stop when "the relative energy change is below `tol`" (reason "energy_tol")."""
+    x = s_curve()
+    full = fit_force_elastic_map(x, n_nodes=60, tol=0.0)
+    h = np.array(full.energy_history)
+    rel = np.abs(np.diff(h)) / np.abs(h[:-1])  # 0.011, 0.0030, 0.0019, 0.00016
+    assert full.stop_reason == "converged" and full.n_iter == 6
+    for tol, n_iter in ((1e-2, 3), (1e-3, 5)):
+        fit = fit_force_elastic_map(x, n_nodes=60, tol=tol)
+        assert (fit.stop_reason, fit.n_iter) == ("energy_tol", n_iter)
+        assert n_iter == 2 + int(np.argmax(rel <= tol))  # the first iteration below tol
+        np.testing.assert_array_equal(fit.nodes, fit_force_elastic_map(x, n_nodes=60, max_iter=n_iter).nodes)
+
+
+def test_an_alternating_assignment_stops_as_a_cycle():
+    """SPEC §1 EM: an assignment that repeats with period 2 stops with reason "cycle", not at max_iter."""
+    x = np.random.default_rng(48).normal(size=(12, 1))
+    kw = dict(n_nodes=4, lam=0.1, mu=0.1)
+    fit = fit_force_elastic_map(x, max_iter=100, **kw)
+    assert (fit.stop_reason, fit.n_iter) == ("cycle", 4)
+    # the assignment of iteration k + 1 is the one to the nodes after k M-steps
+    seq = [assign_nearest(x, arc_length_resample(x, 4))]
+    seq += [fit_force_elastic_map(x, max_iter=k, **kw).labels for k in (1, 2, 3)]
+    assert not np.array_equal(seq[0], seq[1])
+    np.testing.assert_array_equal(seq[2], seq[0])
+    np.testing.assert_array_equal(seq[3], seq[1])
+    e = fit.energy_history
+    assert e[2] == e[0] != e[1] == e[3]
+
+
+def test_initial_map_is_equally_spaced_in_arc_length_not_in_time():
+    """SPEC §1 EM: "Init: arc-length resampling of the first demo" (a demo that dwells near its start)."""
+    centres = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
+    dwell = [20, 10, 5, 2, 1]  # samples per place: most of the demo's time is spent near x = 0
+    offsets = [(0.0,), (-0.05, 0.0, 0.05), (-0.05, 0.0, 0.05), (-0.05, 0.0, 0.05), (0.0,)]
+    path = [c + o for c, offs, k in zip(centres, offsets, dwell, strict=True) for o in offs for _ in range(k)]
+    x = np.zeros((len(path), 2))
+    x[:, 0] = path
+    # with λ = μ = 0 a node is its cluster's mean: the equally spaced init (whose clusters are
+    # symmetric about it) is already the fixed point
+    fit = fit_force_elastic_map(x, n_nodes=5, lam=0.0, mu=0.0)
+    assert fit.stop_reason == "converged" and fit.n_iter == 2
+    np.testing.assert_allclose(fit.nodes[:, 0], centres, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(fit.nodes[:, 1], 0.0)
 
 
 # ---- bad input

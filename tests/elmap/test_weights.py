@@ -104,6 +104,47 @@ def test_cap_engages_at_rho_max_and_is_reported():
     assert fit.capped_nodes.tolist() == [[1, 2]]
 
 
+def test_default_stiffness_keeps_a_100_newton_contact_below_the_cap():
+    """SPEC §1: "Choose the default k so that r stays under rho_max for forces up to 100 N at the default δ"."""
+    import inspect
+
+    from lerobot_forcemap.elmap.fit import DEFAULT_DELTA, DEFAULT_STIFFNESS
+
+    params = inspect.signature(fit_force_elastic_map).parameters
+    assert params["rho_max"].default == 0.75
+    assert (params["stiffness"].default, params["delta"].default) == (DEFAULT_STIFFNESS, DEFAULT_DELTA)
+    x = np.repeat(np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]), 50, axis=0)
+    forces = np.zeros_like(x)
+    forces[50:100, 2] = 100.0
+    a = 100.0 / (DEFAULT_STIFFNESS * DEFAULT_DELTA)  # r before the node lifts (springs of length δ)
+    # first iteration: the node sits on the contact, every spring is δ long, r = a
+    first = fit_force_elastic_map(x, forces, n_nodes=3, lam=0.0, mu=0.0, max_iter=1)
+    assert len(first.capped_nodes) == 0
+    np.testing.assert_allclose(first.nodes[1, 2], a / (1 - a) * DEFAULT_DELTA, rtol=0, atol=1e-12)
+    # steady state: r = a/(1+a), the node lifts by F/k
+    fit = fit_force_elastic_map(x, forces, n_nodes=3, lam=0.0, mu=0.0)
+    assert fit.stop_reason == "converged" and len(fit.capped_nodes) == 0
+    np.testing.assert_allclose(fit.nodes[1, 2], 100.0 / DEFAULT_STIFFNESS, rtol=0, atol=1e-8)
+
+
+@pytest.mark.parametrize("force, capped", [(88.0, False), (100.0, True)])
+def test_cap_onset_is_three_k_delta(force, capped):
+    """At the steady state r = a/(1+a), a = F/(k·δ): the rho_max = 0.75 cap binds from F = 3kδ (90 N at
+    the policy's k = 3000 N/m, δ = 1 cm), not from F = 0.75·kδ; beyond it the lift stops following F/k."""
+    k, delta = 3000.0, 0.01
+    x = np.repeat(np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]), 50, axis=0)
+    forces = np.zeros_like(x)
+    forces[50:100, 2] = force
+    fit = fit_force_elastic_map(
+        x, forces, n_nodes=3, lam=0.0, mu=0.0, stiffness=k, delta=delta, max_iter=1000
+    )
+    assert fit.stop_reason == "converged"
+    assert (len(fit.capped_nodes) > 0) is capped
+    # uncapped: lifted by F/k; capped at r = 0.75: lifted by r/(1-r)·δ = 3δ, short of F/k
+    want = 3 * delta if capped else force / k
+    np.testing.assert_allclose(fit.nodes[1, 2], want, rtol=0, atol=1e-8)
+
+
 def test_without_cap_the_node_is_pulled_into_the_surface():
     """The defect the cap fixes: for r > 1 the node moves *behind* the demonstrated contact."""
     x = np.repeat(np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]), 50, axis=0)

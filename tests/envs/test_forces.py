@@ -71,6 +71,17 @@ def test_wrist_agrees_with_contacts_through_a_held_disc():
     assert_agree(obs, info, min_force=5.0)
 
 
+def test_held_disc_is_tared_after_reset():
+    """SPEC §4 "tare the F/T sensor after reset": the held disc's weight (about 0.5 N) does not read as force."""
+    env = E.make("peg_in_hole")
+    obs, _ = env.reset(seed=3)
+    obs, info = hold(env, obs["ee_pose"].astype(float), 1.0, 30)  # hold the start pose, disc gripped
+    assert np.linalg.norm(info["contact_force"]) == 0.0
+    assert np.linalg.norm(obs["force"][:3]) < 0.05, obs["force"]
+    assert np.linalg.norm(obs["force"][3:]) < 0.005, obs["force"]
+    assert env.unwrapped.bias_site[2] == pytest.approx(-0.5, abs=0.1)  # what the tare removed
+
+
 def test_driving_into_the_table_triggers_the_protective_stop():
     env = E.make("press")
     obs, info = env.reset(seed=0)

@@ -95,6 +95,15 @@ def test_a_partial_stream_dict_keeps_the_other_streams_defaults():
     assert ForceMapConfig(device="cpu", stream_weights={"joints": 0.0}).stream_weights["joints"] == 0.0
 
 
+def test_default_stream_thresholds_are_the_authors():
+    """SPEC §2 the authors' UR5e thresholds: joints 0.20, Cartesian 0.25, wrist force 0.15, gripper 0.10."""
+    from lerobot_forcemap.data.segment import STREAM_THRESHOLDS
+
+    want = {"position": 0.25, "wrist_force": 0.15, "joints": 0.20, "gripper": 0.10, "finger_force": 0.15}
+    assert ForceMapConfig(device="cpu").stream_thresholds == want  # finger force takes the wrist force's
+    assert STREAM_THRESHOLDS == want  # the library's defaults for segment_dataset agree
+
+
 def test_fit_settings_are_every_setting_but_the_runtime_ones():
     from lerobot_policy_forcemap.configuration_forcemap import RUNTIME_FIELDS
 

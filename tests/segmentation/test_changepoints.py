@@ -149,6 +149,14 @@ def test_flat_pmf_reproduces_the_papers_segment_counts() -> None:
     assert np.std(counts) == pytest.approx(0.91, abs=0.05)
 
 
+@pytest.mark.parametrize(("gap", "expected"), [(63, [163]), (64, [100, 164])])
+def test_peaks_closer_than_window_are_one_changepoint(gap: int, expected: list[int]) -> None:
+    """SPEC §2 peaks mode: local maxima "at least `window` apart" (the taller of two closer ones stays)."""
+    pmf = np.full(400, 1e-3)
+    pmf[100], pmf[100 + gap] = 0.01, 0.02
+    assert peak_changepoints(pmf, 1e-3, 2.0, 64).tolist() == expected
+
+
 def test_a_flat_topped_peak_is_one_changepoint_at_its_middle_in_library_and_reference():
     """Two keypoints an odd number of frames apart give a pmf with a two-sample flat top: one peak, at
     its lower middle (scipy's rule), found by the library and by the per-sample reference loop alike."""

@@ -14,6 +14,7 @@ from lerobot_forcemap.segmentation import (
     auto_weights,
     segment_streams,
 )
+from lerobot_forcemap.segmentation.config import MODES
 from lerobot_forcemap.segmentation.keypoints import difference_third_derivative
 from tests.segmentation.helpers import DT, jerk_bursts
 
@@ -177,6 +178,20 @@ def test_other_bad_input() -> None:
         Stream("a", values, times, weight=None)
     with pytest.raises(ValueError, match="stream 'a': values must have shape"):
         Stream("a", np.zeros((300, 2, 2)), times)
+
+
+def test_defaults_are_the_authors_ur5e_values_with_geometric_pooling() -> None:
+    """SPEC §2: `geometric` is the default mode; the authors' window 64, min_run 64, grace 4, 20 samples, n_pass 3."""
+    cfg = SegmentationConfig()
+    assert (cfg.mode, cfg.window, cfg.min_run, cfg.grace) == ("geometric", 64, 64, 4)
+    assert (cfg.n_samples, cfg.n_pass) == (20, 3)
+    values, times = event_stream()
+    late, _ = jerk_bursts(941, np.array([300]), np.array([150]), np.array([1.0]), np.random.default_rng(1))
+    streams = [Stream("arm", values, times, weight=0.2), Stream("force", late, times, weight=0.8)]
+    pmf = {mode: segment_streams(streams, SegmentationConfig(mode=mode)).pmf for mode in MODES}
+    np.testing.assert_array_equal(segment_streams(streams, cfg).pmf, pmf["geometric"])
+    assert np.max(np.abs(pmf["geometric"] / pmf["product"] - 1)) > 0.1  # the weights do not cancel
+    assert np.max(np.abs(pmf["geometric"] / pmf["linear"] - 1)) > 0.1
 
 
 @pytest.mark.parametrize(
