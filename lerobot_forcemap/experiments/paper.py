@@ -221,6 +221,52 @@ def demo_force_records(dataset: str | Path) -> list[dict[str, Any]]:
     return out
 
 
+def demo_phase_switches(dataset: str | Path) -> dict[int, Array]:
+    """Per episode, the frames where the scripted demonstrator's phase (``demo_phase``) changes: the
+    reference events for scoring segmentation in simulation (SPEC §2). ``{}`` without that column."""
+    root = Path(dataset)
+    features = json.loads((root / "meta" / "info.json").read_text())["features"]
+    if layout.DEMO_PHASE not in features:
+        return {}
+    cols = _read_columns(root, [layout.DEMO_PHASE, "episode_index", "frame_index"])
+    episode = cols["episode_index"][:, 0].astype(int)
+    out = {}
+    for e in np.unique(episode):
+        rows = np.flatnonzero(episode == e)
+        rows = rows[np.argsort(cols["frame_index"][rows, 0], kind="stable")]
+        out[int(e)] = np.flatnonzero(np.diff(cols[layout.DEMO_PHASE][rows, 0])) + 1
+    return out
+
+
+def segmentation_score(
+    fits: Sequence[Mapping[str, Any]], switches: Mapping[int, Array]
+) -> dict[str, Any] | None:
+    """Changepoint precision, recall and F1 of one-shot fits (:func:`fitted_checkpoint`'s records)
+    against their demonstrations' phase switches, pooled over the fits; tolerance: the segmentation
+    window. Segment counts say nothing about quality (SPEC §2). None if no fit can be scored."""
+    from lerobot_forcemap.segmentation.evaluation import pooled_score, score_changepoints
+
+    scores = [
+        score_changepoints(
+            f["changepoints"][1:-1], switches[f["demo"]], tolerance=f["segmentation_window_frames"]
+        )
+        for f in fits
+        if "changepoints" in f and f.get("demo") in switches
+    ]
+    if not scores:
+        return None
+    precision, recall, f1 = pooled_score(scores)
+    return {
+        "precision": precision,
+        "recall": recall,
+        "f1": f1,
+        "n_fits": len(scores),
+        "tolerance_frames": sorted(
+            {int(f["segmentation_window_frames"]) for f in fits if "changepoints" in f}
+        ),
+    }
+
+
 def reanchor_actions(demo: DemoEpisode, env_state_now: Array, anchor: str) -> Array:
     """The demonstration's actions moved rigidly with object ``anchor``: from its pose at the
     demonstration's first frame to its pose in ``env_state_now (E,)``. Returns (T, 8)."""
@@ -389,6 +435,8 @@ def fitted_checkpoint(job: Job, workdir: str | Path, *, force: bool = False) -> 
     import os
     import shutil
 
+    from lerobot_policy_forcemap.fitting import segmentation_config
+
     from .fit import fit_policy
 
     ckpt = Path(workdir) / "checkpoints" / code_fingerprint() / fit_key(job)
@@ -397,12 +445,19 @@ def fitted_checkpoint(job: Job, workdir: str | Path, *, force: bool = False) -> 
         return ckpt, json.loads(info_file.read_text())
     tmp = ckpt.with_name(f"{ckpt.name}.tmp{os.getpid()}")
     result = fit_policy(job.dataset_path, tmp, episodes=[job.demo], overrides=job.overrides, overwrite=True)
-    rows = result.policy.fit_report.summary()
+    report = result.policy.fit_report
+    rows = report.summary()
+    cfg = result.policy.config
     fit = {
         "fit_s": result.fit_s,
+        "demo": job.demo,
         "n_segments": len(rows),
+        # frames of the demonstration where its segments start (0 and T included), and the window they
+        # were found with: scored against the demonstrator's phase switches (segmentation_score)
+        "changepoints": [int(c) for c in report.changepoints[0]],
+        "segmentation_window_frames": segmentation_config(cfg, cfg.fps).window,
         "segments": to_json(rows),
-        "n_force_limit_rows": int(sum(a.n_force_limit_rows for a in result.policy.fit_report.arm_fits)),
+        "n_force_limit_rows": int(sum(a.n_force_limit_rows for a in report.arm_fits)),
         "checkpoint": str(ckpt),
     }
     (tmp / "fit_info.json").write_text(json.dumps(fit))

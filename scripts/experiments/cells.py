@@ -19,7 +19,9 @@ from lerobot_forcemap.experiments.paper import (
     Job,
     demo_change,
     demo_force_records,
+    demo_phase_switches,
     run_jobs,
+    segmentation_score,
     summarize_records,
 )
 
@@ -92,6 +94,9 @@ def aggregate(cell: Cell, tune_demos: tuple[int, ...] = ()) -> dict[str, Any]:
         out["capped_nodes_mean"] = float(
             np.mean([sum(s["capped_nodes"] for s in f["segments"]) for f in fits])
         )
+        score = segmentation_score(fits, demo_phase_switches(cell.jobs[0].dataset_path))
+        if score is not None:
+            out["changepoints_vs_demo_phase"] = score
     if cell.experiment != "grasp" or cell.object is None or _is_demo_object(cell):
         demos = demo_force_records(cell.jobs[0].dataset_path) if cell.jobs else []
         if demos and recs:

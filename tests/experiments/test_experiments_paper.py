@@ -16,8 +16,10 @@ from lerobot_forcemap.experiments.paper import (
     code_fingerprint,
     demo_change,
     demo_force_records,
+    demo_phase_switches,
     fit_key,
     reanchor_actions,
+    segmentation_score,
     split_seeds,
     summarize_records,
     wilson_interval,
@@ -148,6 +150,35 @@ def test_demo_force_records_match_the_recorder_file():
     assert len(recs) == len(raw) and recs[3]["max_contact_force"] == raw[3]["max_contact_force"]
 
 
+def test_segmentation_is_scored_against_the_demonstrators_phase_switches():
+    """SPEC §2: changepoint precision/recall/F1 within the window against the scripted phase switches."""
+    import pyarrow.parquet as pq
+
+    switches = demo_phase_switches(REPO_ROOT / "datasets" / "press")
+    table = pq.read_table(REPO_ROOT / "datasets" / "press" / "data" / "chunk-000" / "file-000.parquet")
+    rows = table.filter(table["episode_index"].to_numpy() == 3).sort_by("frame_index")
+    phase = rows[layout.DEMO_PHASE].to_numpy()
+    assert sorted(switches) == list(range(10))
+    assert len(switches[3]) == 4 and np.all(phase[switches[3]] != phase[switches[3] - 1])
+    assert len(np.unique(phase)) == 5  # no other switches: 5 phases, 4 changes
+    sw, T = switches[3].tolist(), len(phase)
+
+    def fit(interior, demo=3, window=8):
+        return {"demo": demo, "changepoints": [0, *interior, T], "segmentation_window_frames": window}
+
+    assert segmentation_score([fit(sw)], switches)["f1"] == 1.0
+    assert segmentation_score([fit([c + 8 for c in sw])], switches)["f1"] == 1.0  # within the window
+    assert segmentation_score([fit([c + 9 for c in sw], window=8)], switches)["recall"] < 1.0
+    none = segmentation_score([fit([])], switches)  # one segment: nothing found, nothing wrong
+    assert (none["precision"], none["recall"], none["f1"]) == (1.0, 0.0, 0.0)
+    # pooled over fits: 4 of 4, then 2 of 4 with one false alarm far from every switch
+    assert sw[0] > 28  # so sw[0] - 20 is more than a window from every switch
+    pooled = segmentation_score([fit(sw), fit([sw[0] - 20, sw[0], sw[1]])], switches)
+    assert pooled["precision"] == pytest.approx(6 / 7) and pooled["recall"] == pytest.approx(6 / 8)
+    assert pooled["n_fits"] == 2 and pooled["tolerance_frames"] == [8]
+    assert segmentation_score([fit(sw, demo=99)], switches) is None  # no reference: not scored
+
+
 def test_jobs_run_cache_and_share_one_fit(tmp_path):
     """A hybrid and a forcemap job on press (1 episode each): records, the cache, a shared checkpoint."""
     hybrid = Job(
@@ -168,6 +199,8 @@ def test_jobs_run_cache_and_share_one_fit(tmp_path):
         assert out[0]["records"][0]["max_contact_force"] < 30.0
         assert out[0]["records"][0]["trace"]["rows"] and "trace" not in out[1]["records"][0]
         assert out[1]["fit"]["checkpoint"] == out[2]["fit"]["checkpoint"]  # one fit for both
+        fit = out[1]["fit"]  # what segmentation_score reads: the demo's changepoints and the window
+        assert fit["demo"] == 0 and fit["changepoints"][0] == 0 and fit["segmentation_window_frames"] == 8
         again = runner.run([ours], tmp_path, desc="test")[0]
         assert again["cached"] and again["records"] == out[1]["records"]
 
