@@ -516,6 +516,12 @@ def run(args: argparse.Namespace) -> int:
         repo_id=args.repo_id,
         write=not args.dry_run,
     )
+    first = next((s.result for s in segs if s.result is not None), None)
+    if first is not None:  # a stream not given in --weights keeps weight 1: say what was used
+        print(
+            "streams (weight, threshold): "
+            + ", ".join(f"{n} ({r.weight:g}, {r.threshold:g})" for n, r in first.streams.items())
+        )
     for s in segs:
         dropped = s.result.rejected.tolist() if s.result is not None else []
         print(

@@ -105,6 +105,10 @@ def visualize_episode(
     from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lazy: heavy import
 
     root = require_dataset_root(root, "--dataset")
+    if save is not None and Path(save).is_dir():
+        raise ValueError(
+            f"--save {save}: is a folder; give a file name such as {Path(save) / f'episode_{episode}.rrd'}"
+        )
     rr = _import_rerun()
     dataset = LeRobotDataset(repo_id or f"local/{root.name}", root=root)
     _episode_rows(dataset, episode)  # a bad episode fails before a viewer or file is opened

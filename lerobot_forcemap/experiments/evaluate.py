@@ -595,7 +595,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--video-dir", default=None, help="write mp4 videos of the first --videos episodes here"
     )
-    parser.add_argument("--videos", type=int, default=1)
+    parser.add_argument(
+        "--videos", type=int, default=None, help="how many episodes to film (default 1; needs --video-dir)"
+    )
     parser.add_argument("--device", default="cpu")
     parser.add_argument(
         "--env-state-extras",
@@ -609,6 +611,11 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.json)
     if out.is_dir():  # found before the rollouts, not after
         raise ValueError(f"--json {out}: is a folder; give the path of the JSON file to write")
+    if args.videos is not None and (args.video_dir is None or args.videos < 0):
+        raise ValueError(
+            f"--videos {args.videos}: "
+            + ("must be >= 0" if args.videos < 0 else "give --video-dir too (where the mp4 files go)")
+        )
     if args.dataset:  # found before the rollouts, not after them with nothing written
         from lerobot_forcemap.data.schema import require_dataset_root
 
@@ -620,7 +627,7 @@ def run(args: argparse.Namespace) -> int:
         args.seed,
         trace=args.trace,
         video_dir=args.video_dir,
-        n_videos=args.videos,
+        n_videos=1 if args.videos is None else args.videos,
         device=args.device,
         env_state_extras=getattr(args, "env_state_extras", None),
         object_name=getattr(args, "object", None),

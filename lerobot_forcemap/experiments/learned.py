@@ -131,8 +131,9 @@ def derive_env_state_dataset(
         extended_env_state_names,
         parse_env_state_extras,
     )
+    from lerobot_forcemap.data.schema import require_dataset_root
 
-    source, out = Path(source), Path(out)
+    source, out = require_dataset_root(source, "source"), Path(out)
     extras = parse_env_state_extras(extras)
     if not extras:
         raise ValueError("derive_env_state_dataset: extras is empty (nothing to derive)")

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -317,7 +318,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _is_number(value: object) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+    """A finite int or float (JSON's NaN and Infinity would print as "nan ± 0.0" in the tables)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def check_eval_document(doc: Any, where: str) -> None:
@@ -339,8 +341,8 @@ def check_eval_document(doc: Any, where: str) -> None:
     if not isinstance(n, int) or n < 1 or len(doc["episodes"]) != n:
         raise bad("summary.n", f"is {n!r} for {len(doc['episodes'])} episode record(s); a report needs >= 1")
     for key in ("success_rate", "protective_stops"):
-        if not isinstance(summary.get(key), (int, float)):
-            raise bad(f"summary.{key}", "is missing or not a number")
+        if not _is_number(summary.get(key)):
+            raise bad(f"summary.{key}", "is missing or not a finite number")
     summaries = {"summary": summary}
     demos = doc.get("demonstrations")
     if demos is not None:

@@ -150,6 +150,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", type=Path, default=REPO / "configs")
     args = p.parse_args(argv)
     doc = json.loads((args.results / "experiments.json").read_text())
+    if doc.get("protocol", {}).get("quick") and args.out.resolve() == (REPO / "configs").resolve():
+        p.error(
+            f"{args.results / 'experiments.json'} is a --quick smoke-test report: give --out for its configs"
+        )
     written = write_configs(build_configs(doc, load_learned(args.results / "learned")), args.out)
     print(f"wrote {len(written)} configs under {args.out}")
     return 0

@@ -3,7 +3,7 @@ datasets (all 10 demos, CPU, small configs) and evaluated on the forcemap experi
 
     python scripts/experiments/learned_baselines.py --tasks press erase peg_in_hole \
         --methods act diffusion --steps act=4000 diffusion=1500 --out results/learned
-    python scripts/experiments/learned_baselines.py --smoke --tasks press --out /tmp/learned   # a few steps, 2 episodes
+    python scripts/experiments/learned_baselines.py --smoke --tasks press --out /tmp/learned --work /tmp/learned_work   # 3 steps, 2 episodes
 
 Per task: ``datasets/<task>`` -> derived dataset ``<work>/datasets/<task>`` whose
 ``observation.environment_state`` is ``[object state | ee_pose | force]`` (how force reaches ACT and
@@ -57,23 +57,29 @@ import numpy as np  # noqa: E402
 REPO = Path(__file__).resolve().parents[2]
 TASKS = ("press", "erase", "peg_in_hole")
 SMOKE_STEPS = 3
+DEFAULT_OUT = REPO / "results" / "learned"
+DEFAULT_WORK = REPO / "outputs" / "learned"
 SMOKE_EPISODES = 2
 
 
-def parse_steps(items: list[str], methods: list[str]) -> dict[str, int]:
-    """``["300"]`` -> every method 300; ``["act=300", "diffusion=100"]`` -> per method."""
+def parse_steps(items: list[str], methods: list[str], flag: str = "--steps") -> dict[str, int]:
+    """``["300"]`` -> every method 300; ``["act=300", "diffusion=100"]`` -> per method. ``flag``: the
+    option the items came from (``--steps`` / ``--batch-size``), named in the errors."""
     out: dict[str, int] = {}
     for item in items:
-        if "=" in item:
-            name, value = item.split("=", 1)
-            out[name] = int(value)
-        else:
-            out.update({m: int(item) for m in methods})
+        name, _, value = item.rpartition("=")
+        if name and name not in ("act", "diffusion"):
+            raise ValueError(f"{flag}: unknown method {name!r} in {item!r} (act, diffusion)")
+        try:
+            number = int(value)
+        except ValueError:
+            raise ValueError(f"{flag}: {item!r} is not N or method=N with an integer N") from None
+        out.update({name: number} if name else dict.fromkeys(methods, number))
     missing = [m for m in methods if m not in out]
     if missing:
-        raise ValueError(f"--steps: no step budget for {missing}")
+        raise ValueError(f"{flag}: no value for {missing}")
     if any(v < 1 for v in out.values()):
-        raise ValueError(f"--steps must be >= 1, got {out}")
+        raise ValueError(f"{flag} must be >= 1, got {out}")
     return out
 
 
@@ -251,8 +257,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--seed", type=int, default=1000, help="env seed of the first episode (episode i: seed + i)"
     )
-    p.add_argument("--out", type=Path, default=REPO / "results" / "learned")
-    p.add_argument("--work", type=Path, default=REPO / "outputs" / "learned", help="datasets and checkpoints")
+    p.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    p.add_argument("--work", type=Path, default=DEFAULT_WORK, help="datasets and checkpoints")
     p.add_argument(
         "--datasets", type=Path, default=REPO / "datasets", help="folder with the shipped datasets"
     )
@@ -266,11 +272,21 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
 
     from lerobot_env_forcemap.env_state import parse_env_state_extras
+    from lerobot_forcemap.data.schema import require_dataset_root
     from lerobot_forcemap.experiments.learned import derive_env_state_dataset
 
-    extras = parse_env_state_extras(args.extras)
-    steps = parse_steps(args.steps, args.methods)
-    batch = parse_steps(args.batch_size, args.methods)
+    if args.smoke and (args.out == DEFAULT_OUT or args.work == DEFAULT_WORK):
+        # the default --work holds the trained checkpoints (run_one replaces a task's folder) and the
+        # default --out the results the report merges: a smoke run must not overwrite either
+        p.error("--smoke needs --out and --work outside results/learned and outputs/learned")
+    try:
+        for task in args.tasks:
+            require_dataset_root(args.datasets / task, "--datasets")
+        extras = parse_env_state_extras(args.extras)
+        steps = parse_steps(args.steps, args.methods)
+        batch = parse_steps(args.batch_size, args.methods, "--batch-size")
+    except ValueError as err:
+        p.error(str(err))
     episodes = args.episodes
     if args.smoke:
         steps = dict.fromkeys(args.methods, SMOKE_STEPS)

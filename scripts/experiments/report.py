@@ -60,6 +60,12 @@ def learned_records(
                 )
                 continue
             doc = json.loads(path.read_text())
+            if (doc.get("config") or {}).get("smoke"):  # a few training steps: not a baseline
+                print(f"warning: {path} is a --smoke run's result; left out of the report (pending)")
+                out.append(
+                    {**base, "label": f"{name} (lerobot-train)", "status": "pending", "source": str(path)}
+                )
+                continue
             eps = doc.get("episodes") or []
             if eps and all("success" in e and "max_contact_force" in e for e in eps):
                 summary = summarize_records(eps)

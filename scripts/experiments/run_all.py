@@ -16,7 +16,9 @@ Stages (each module's docstring has the details and the protocol is in ``common.
 Every episode's record is cached in ``outputs/experiments/raw/<job>.json``: a second run only
 re-aggregates (that is how to refresh the report once the learned baselines land). ``--force``
 re-runs everything; ``--quick`` is the smoke-test size (2 demonstrations, 2 seeds, tiny grids) and
-must be given ``--out`` (it never writes ``results/``).
+must be given ``--out`` (it never writes ``results/``), as must ``--only`` with some of the stages.
+The repo's ``configs/`` is rewritten only by a full run into ``results/``; other runs write theirs
+under ``<out>/configs``.
 """
 
 from __future__ import annotations
@@ -200,8 +202,10 @@ def _run(settings: Settings, stages: tuple[str, ...]) -> dict:
     print(
         f"wrote {s.results / 'experiments.json'}, {s.results / 'experiments.md'} and {len(figures)} figures"
     )
-    # the chosen settings as lerobot-train / lerobot-eval --config_path files (quick runs keep theirs in --out)
-    config_dir = s.results / "configs" if s.quick else config_files.REPO / "configs"
+    # the chosen settings as lerobot-train / lerobot-eval --config_path files: the repo's configs/ only from
+    # a full run into results/ (write_configs removes the files a run does not produce)
+    full = not s.quick and set(stages) == set(STAGES) and s.results.resolve() == RESULTS.resolve()
+    config_dir = config_files.REPO / "configs" if full else s.results / "configs"
     learned_docs = [] if s.quick else config_files.load_learned(s.learned_dir)
     written = config_files.write_configs(config_files.build_configs(doc, learned_docs), config_dir)
     print(f"wrote {len(written)} configs under {config_dir}")
@@ -245,6 +249,11 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.quick and args.out is None:
         parser.error("--quick writes a smoke-test report: give --out (results/ holds the real one)")
+    if set(args.only) != set(STAGES) and args.out is None:
+        # the report holds only the stages run: it would replace results/ and configs/ with a part of them
+        parser.error(
+            f"--only {' '.join(args.only)} writes a partial report: give --out (results/ holds the full one)"
+        )
     s = Settings(
         workers=args.workers,
         force=args.force,

@@ -173,7 +173,10 @@ def test_cli(dataset, capsys):
             "product",
         ]
     )
-    assert rc == 0 and "episode 1:" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert rc == 0 and "episode 1:" in out
+    # the weights used, including the streams --weights left at 1
+    assert "joints (0, 0.2)" in out and "wrist_force (0.35, 0.15)" in out and "position (1, 0.25)" in out
     ds = load(dataset)
     assert set(read_segment_index(ds)) == {0, 1}
     with pytest.raises(ValueError, match="name=value"):

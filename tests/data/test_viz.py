@@ -73,3 +73,6 @@ def test_cli_writes_the_file_and_names_a_bad_episode(segmented_camera_dataset, t
     assert not (tmp_path / "x.rrd").exists()
     assert cli(["viz", "--dataset", str(root), "--save", str(tmp_path / "ep0.rrd")]) == 0
     assert (tmp_path / "ep0.rrd").stat().st_size > 0
+    # a folder for --save is named, not rerun's "Failed to create file: Is a directory"
+    assert cli(["viz", "--dataset", str(root), "--save", str(tmp_path)]) == 2
+    assert f"--save {tmp_path}: is a folder" in capsys.readouterr().err

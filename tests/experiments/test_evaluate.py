@@ -249,3 +249,6 @@ def test_a_bad_dataset_or_seed_is_refused_before_any_rollout(press_checkpoint, t
         main([*base, "--dataset", str(tmp_path / "nope")])
     with pytest.raises(ValueError, match="--seed must be >= 0, got -1"):
         main([*base, "--seed", "-1"])
+    # --videos without --video-dir filmed nothing and said nothing
+    with pytest.raises(ValueError, match=r"--videos 2: give --video-dir too"):
+        main([*base, "--videos", "2"])

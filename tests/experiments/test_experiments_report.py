@@ -64,6 +64,12 @@ def test_learned_records_merge_done_and_pending(tmp_path):
     assert len(pending) == 5 and {r["experiment"] for r in pending} == {"table2", "peg"}
     lines = "\n".join(report.table2_md(recs, "press"))
     assert "pending" in lines and "-84.35%" in lines and "-66.64%" in lines
+    # a --smoke run's JSON (3 training steps) in the folder is not merged as the baseline
+    (tmp_path / "press__act.json").write_text(json.dumps({**doc, "config": {"smoke": True}}))
+    act = next(
+        r for r in report.learned_records(tmp_path, demos) if r["method"] == "act" and r["task"] == "press"
+    )
+    assert act["status"] == "pending"
 
 
 def _t2(task, method, dmax, dmean, success, coverage=None):

@@ -298,3 +298,10 @@ def test_script_parse_steps():
     assert mod.parse_steps(["act=5", "diffusion=7"], ["act", "diffusion"]) == {"act": 5, "diffusion": 7}
     with pytest.raises(ValueError, match="diffusion"):
         mod.parse_steps(["act=5"], ["act", "diffusion"])
+    with pytest.raises(ValueError, match=r"--batch-size: unknown method 'actt'"):
+        mod.parse_steps(["actt=5"], ["act"], "--batch-size")
+    with pytest.raises(ValueError, match=r"--steps: 'act=abc' is not N or method=N"):
+        mod.parse_steps(["act=abc"], ["act"])
+    # a smoke run must not replace the trained checkpoints or the results the report merges
+    with pytest.raises(SystemExit):
+        mod.main(["--smoke", "--tasks", "press", "--out", "/tmp/never"])

@@ -131,7 +131,10 @@ def test_what_is_not_an_eval_document_is_named(tmp_path):
         "abc"  # used to fail in a format string, naming nothing
     )
     bad_axes["demonstrations"]["summary_all"]["mean_contact_force_xyz"]["std"] = [1.0, 2.0]
+    nan_mean = _doc()
+    nan_mean["summary"]["max_contact_force"]["mean"] = float("nan")  # JSON NaN: "nan ± 0.0" in a table
     cases = [
+        (nan_mean, r"summary.max_contact_force.mean is nan, expected a number"),
         (bad_mean, r"summary.max_contact_force.mean is 'abc', expected a number"),
         (
             bad_axes,
