@@ -102,17 +102,26 @@ def bench_render(task: str, size: int, n: int = 30) -> float:
     return 1e3 * statistics.median(times)
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--episodes", type=int, default=5)
+    parser.add_argument("--episodes", type=int, default=5, help="scripted episodes per task (>= 1)")
     parser.add_argument(
         "--cores", type=int, default=1, help="pin the process to this many CPU cores (0: no pinning)"
     )
     parser.add_argument("--no-render", action="store_true")
     parser.add_argument("--json", default=None, help="also write the numbers to this JSON file")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    if args.episodes < 1:
+        parser.error(f"--episodes must be >= 1, got {args.episodes}")
+    available = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    if not 0 <= args.cores <= available:
+        parser.error(
+            f"--cores must be 0 (no pinning) or 1..{available} (the cores this process may use), got {args.cores}"
+        )
+    pinned = 0
     if args.cores and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, set(sorted(os.sched_getaffinity(0))[: args.cores]))
+        pinned = args.cores
     rows = []
     tasks = [t for t in TASKS if t in ("press", "erase", "peg_in_hole", "grasp_push", "grasp_flip")]
     for task in tqdm(tasks, desc="bench_envs", unit="task", file=sys.stderr):
@@ -135,7 +144,7 @@ def main() -> int:
             }  # fmt: skip
         )
     print(
-        f"mujoco {mujoco.__version__}, {args.episodes} scripted episodes per task, cores pinned: {args.cores or 'no'}\n"
+        f"mujoco {mujoco.__version__}, {args.episodes} scripted episodes per task, cores pinned: {pinned or 'no'}\n"
     )
     print(
         "| task | build (ms) | real-time factor (env) | bare mj_step RTF (at rest) | env / bare | render 256 px (ms) | render 128 px (ms) |"

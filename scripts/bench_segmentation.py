@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import gc
 import os
-import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -52,24 +51,55 @@ def seconds(rows: np.ndarray) -> np.ndarray:
     return rows[:, 0] + rows[:, 1] * 1e-9
 
 
+#: the datasets of a UR5e recorder file (``ur5e/*.h5``) this benchmark reads
+RECORDER_DATASETS = (
+    "joint_state_info/joint_time",
+    "joint_state_info/joint_positions",
+    "transform_info/transform_positions",
+    "transform_info/transform_time",
+    "wrench_info/wrench_force",
+    "wrench_info/wrench_torque",
+    "wrench_info/wrench_time",
+    "gripper_info/gripper_position",
+    "gripper_info/gripper_time",
+)
+
+
 def load_streams(path: Path) -> list[Stream]:
-    with h5py.File(path, "r") as f:
-        t = seconds(f["joint_state_info/joint_time"][()])
+    """The five streams of a UR5e recorder file; ValueError naming the file and what it lacks otherwise."""
+    try:
+        f = h5py.File(path, "r")
+    except OSError as err:
+        raise ValueError(f"{path}: not a readable HDF5 file ({err})") from err
+    with f:
+        missing = [k for k in RECORDER_DATASETS if k not in f]
+        if missing:
+            top = sorted(f.keys())
+            raise ValueError(
+                f"{path}: not a UR5e recorder file like ur5e/three_button_press.h5: it lacks "
+                f"{', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''} (top-level groups found: "
+                f"{', '.join(top[:6]) + (' ...' if len(top) > 6 else '') if top else 'none'})"
+            )
+        return _read_streams(f)
 
-        def on_joint_time(values_key: str, time_key: str) -> np.ndarray:
-            values = f[values_key][()]
-            ts = seconds(f[time_key][()])
-            if ts.shape == t.shape and np.allclose(ts, t, rtol=0, atol=1e-3):
-                return values
-            return np.stack([np.interp(t, ts, column) for column in values.T], axis=1)
 
-        values = {
-            "joints": np.unwrap(f["joint_state_info/joint_positions"][()], axis=0),
-            "cartesian": on_joint_time("transform_info/transform_positions", "transform_info/transform_time"),
-            "wrist_force": on_joint_time("wrench_info/wrench_force", "wrench_info/wrench_time"),
-            "wrist_torque": on_joint_time("wrench_info/wrench_torque", "wrench_info/wrench_time"),
-            "gripper": on_joint_time("gripper_info/gripper_position", "gripper_info/gripper_time"),
-        }
+def _read_streams(f: h5py.File) -> list[Stream]:
+    t = seconds(f["joint_state_info/joint_time"][()])
+
+    def on_joint_time(values_key: str, time_key: str) -> np.ndarray:
+        values = f[values_key][()]
+        ts = seconds(f[time_key][()])
+        if ts.shape == t.shape and np.allclose(ts, t, rtol=0, atol=1e-3):
+            return values
+        return np.stack([np.interp(t, ts, column) for column in values.T], axis=1)
+
+    values = {
+        "joints": np.unwrap(f["joint_state_info/joint_positions"][()], axis=0),
+        "cartesian": on_joint_time("transform_info/transform_positions", "transform_info/transform_time"),
+        "wrist_force": on_joint_time("wrench_info/wrench_force", "wrench_info/wrench_time"),
+        "wrist_torque": on_joint_time("wrench_info/wrench_torque", "wrench_info/wrench_time"),
+        "gripper": on_joint_time("gripper_info/gripper_position", "gripper_info/gripper_time"),
+    }
     t = t - t[0]
     return [Stream(k, v, t, weight=WEIGHTS[k], threshold=THRESHOLDS[k]) for k, v in values.items()]
 
@@ -136,19 +166,25 @@ def plot(streams: list[Stream], seg, path: Path) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--data", type=Path, default=default_demo_path(), help="three_button_press.h5")
-    parser.add_argument("--runs", type=int, default=50, help="timed runs of segment_streams (>= 20)")
     parser.add_argument(
-        "--loop-runs", type=int, default=20, help="timed runs of the per-sample loop reference"
+        "--runs", type=int, default=50, help="timed runs of segment_streams and of each stage (>= 1)"
+    )
+    parser.add_argument(
+        "--loop-runs", type=int, default=20, help="timed runs of the per-sample loop reference (>= 1)"
     )
     parser.add_argument(
         "--plot", type=Path, default=None, help="write a PNG of the default segmentation here"
     )
     args = parser.parse_args(argv)
+    for flag, value in (("--runs", args.runs), ("--loop-runs", args.loop_runs)):
+        if value < 1:
+            parser.error(f"{flag} must be >= 1, got {value}")
     if not args.data.is_file():
-        print(f"error: {args.data} not found (set FORCEMAP_SHARED_DATA or --data)", file=sys.stderr)
-        return 2
-
-    streams = load_streams(args.data)
+        parser.error(f"--data {args.data}: not found (set FORCEMAP_SHARED_DATA or pass --data)")
+    try:
+        streams = load_streams(args.data)
+    except ValueError as err:
+        parser.error(f"--data {err}")
     n = streams[0].n_frames
     print(
         f"demo: {args.data.name}, {n} samples, {len(streams)} streams "

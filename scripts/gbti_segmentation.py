@@ -45,7 +45,7 @@ import numpy as np  # noqa: E402
 from scipy import stats  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from lerobot_forcemap.data.recorder import iter_gbti_demos  # noqa: E402
+from lerobot_forcemap.data.recorder import gbti_keys, iter_gbti_demos  # noqa: E402
 from lerobot_forcemap.data.transforms import align_recording  # noqa: E402
 from lerobot_forcemap.segmentation import (  # noqa: E402
     SegmentationConfig,
@@ -139,16 +139,20 @@ def default_data_dir() -> Path:
     return find_shared_data("gbti/Grasping_Demos.h5") or REPO.parent / "shared" / "data"
 
 
-def load_demos(
-    path: Path, n_points: int, merge_within: float, limit: int | None
-) -> tuple[list[Demo], list[str]]:
-    """Every GBTI demo aligned onto n_points evenly spaced frames, its streams and reference events."""
+def chosen_keys(path: Path, limit: int | None) -> list:
+    """The GBTI demo keys used: all of them, or ``limit`` (>= 1) spread evenly over the key order."""
+    keys = gbti_keys(path)
+    if limit is not None:
+        keys = keys[:: max(1, len(keys) // limit)][:limit]
+    return keys
+
+
+def load_demos(path: Path, n_points: int, merge_within: float, keys: list) -> tuple[list[Demo], list[str]]:
+    """The given GBTI demos aligned onto n_points evenly spaced frames, their streams and reference events."""
     demos: list[Demo] = []
     notes: list[str] = []
-    items = list(iter_gbti_demos(path))
-    if limit is not None:
-        items = items[:: max(1, len(items) // limit)][:limit]
-    for key, rec in tqdm(items, desc="load + align + events", unit="demo"):
+    items = iter_gbti_demos(path, keys)
+    for key, rec in tqdm(items, total=len(keys), desc="load + align + events", unit="demo"):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             a = align_recording(rec, n_samples=n_points)
@@ -407,7 +411,9 @@ def segment_colours(n: int) -> list:
 
 def figure_demo(demos: list[Demo], key: str, out: Path, spec_of: dict[str, RunSpec]) -> dict:
     """Fig. 4 analogue: the demo's 3-D path coloured by segment and its streams over time, per weighting."""
-    demo = next((d for d in demos if d.key == key), demos[0])
+    demo = next((d for d in demos if d.key == key), None)
+    if demo is None:
+        raise ValueError(f"figure demo {key!r} is not among the loaded demos")
     weightings = list(TABLE_I)
     fig = plt.figure(figsize=(16, 10.5))
     info = {
@@ -579,7 +585,7 @@ def main(argv: list[str] | None = None) -> int:
         "--data", type=Path, default=default_data_dir(), help="shared data dir holding gbti/Grasping_Demos.h5"
     )
     ap.add_argument("--out", type=Path, default=REPO / "results")
-    ap.add_argument("--seeds", type=int, default=5, help="sample-mode runs per demo (the paper: 5)")
+    ap.add_argument("--seeds", type=int, default=5, help="sample-mode runs per demo (the paper: 5; >= 1)")
     ap.add_argument(
         "--n-points", type=int, default=1000, help="frames per demo after resampling (the paper: 1000)"
     )
@@ -589,18 +595,40 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--merge-within", type=float, default=64.0, help="events closer than this many frames count as one"
     )
-    ap.add_argument("--limit", type=int, default=None, help="use only N demos (quick check)")
-    ap.add_argument("--figure-demo", default=FIGURE_DEMO)
+    ap.add_argument("--limit", type=int, default=None, help="use only N demos (quick check; >= 1)")
+    ap.add_argument(
+        "--figure-demo",
+        default=None,
+        help=f"demo key drawn in segmentation.png (default {FIGURE_DEMO}, or the first demo used when "
+        "--limit leaves it out)",
+    )
     args = ap.parse_args(argv)
     started = time.perf_counter()
+    for flag, value in (("--seeds", args.seeds), ("--limit", args.limit), ("--n-points", args.n_points)):
+        if value is not None and value < 1:
+            ap.error(f"{flag} must be >= 1, got {value}")
+    if args.tolerance <= 0:
+        ap.error(f"--tolerance must be > 0, got {args.tolerance}")
     h5 = args.data / "gbti" / "Grasping_Demos.h5"
     if not h5.is_file():
-        print(f"error: {h5} not found (set --data or FORCEMAP_SHARED_DATA)", file=sys.stderr)
-        return 2
+        ap.error(f"--data {args.data}: {h5} not found (pass --data or set FORCEMAP_SHARED_DATA)")
+    keys = chosen_keys(h5, args.limit)
+    used = [str(k) for k in keys]
+    if args.figure_demo is None:
+        args.figure_demo = FIGURE_DEMO if FIGURE_DEMO in used else used[0]
+        if args.figure_demo != FIGURE_DEMO:
+            print(f"note: figure demo {FIGURE_DEMO} left out by --limit; drawing {used[0]}", file=sys.stderr)
+    elif args.figure_demo not in used:
+        if args.figure_demo in {str(k) for k in gbti_keys(h5)}:
+            ap.error(
+                f"--figure-demo {args.figure_demo!r} is left out by --limit {args.limit}; "
+                f"the demos used: {', '.join(used)}"
+            )
+        ap.error(f"--figure-demo {args.figure_demo!r}: no such demo in {h5}; valid keys: {', '.join(used)}")
     args.out.mkdir(parents=True, exist_ok=True)
     tol = float(args.tolerance)
 
-    demos, align_notes = load_demos(h5, args.n_points, args.merge_within, args.limit)
+    demos, align_notes = load_demos(h5, args.n_points, args.merge_within, keys)
     for derivative in ("savgol", "difference"):
         cfg = config_for(RunSpec("f1", derivative, "uniform", "geometric", "peaks", None), 0)
         for demo in demos:
@@ -734,7 +762,8 @@ def main(argv: list[str] | None = None) -> int:
     payload = {
         "command": " ".join(
             [
-                "OPENBLAS_NUM_THREADS=1 .venv/bin/python scripts/gbti_segmentation.py",
+                f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')} "
+                ".venv/bin/python scripts/gbti_segmentation.py",
                 *(sys.argv[1:] if argv is None else argv),
             ]
         ),
@@ -747,6 +776,7 @@ def main(argv: list[str] | None = None) -> int:
             "python": platform.python_version(),
             "numpy": np.__version__,
             "cpu_threads": os.environ.get("OPENBLAS_NUM_THREADS"),
+            "cpu_count": os.cpu_count(),
         },
         "data": {
             "file": str(h5),
@@ -844,6 +874,15 @@ def f1_row(method: str, weighting: str, mode: str, r: dict) -> list[str]:
     ]
 
 
+def shown_path(path: Path) -> str:
+    """``path`` relative to the repository when it lies inside it (``results/...``), else absolute."""
+    path = Path(path).resolve()
+    try:
+        return str(path.relative_to(REPO))
+    except ValueError:
+        return str(path)
+
+
 def render_markdown(p: dict, scores: dict, args: argparse.Namespace) -> str:
     s = p["settings"]
     n = p["data"]["n_demos"]
@@ -856,8 +895,8 @@ def render_markdown(p: dict, scores: dict, args: argparse.Namespace) -> str:
     out.append(
         f"Produced by `{p['command']}` in {p['runtime_s']['total']:.0f} s "
         f"({p['runtime_s']['segment_streams_calls']} `segment_streams` calls in {p['runtime_s']['segmentation']:.0f} s; "
-        f"one process, `OPENBLAS_NUM_THREADS=1`, on a 2-core machine shared with other jobs). All numbers below are in "
-        "`results/segmentation.json`.\n"
+        f"one process, `OPENBLAS_NUM_THREADS={p['machine']['cpu_threads']}`, on a machine with "
+        f"{p['machine']['cpu_count']} CPU cores). All numbers below are in `{shown_path(args.out / 'segmentation.json')}`.\n"
     )
 
     # ---- headline

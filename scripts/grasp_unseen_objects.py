@@ -88,11 +88,15 @@ def summarise(infos: list[dict]) -> dict:
     }
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=20, help="demonstrator episodes per task and object")
+    parser.add_argument(
+        "--seeds", type=int, default=20, help="demonstrator episodes per task and object (>= 1)"
+    )
     parser.add_argument("--json", default=None, help="also write the numbers to this JSON file")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    if args.seeds < 1:
+        parser.error(f"--seeds must be >= 1, got {args.seeds}")
     rows = []
     for task, demo_object in TASKS.items():
         demos, phases = load_demos(task)

@@ -2,7 +2,8 @@
 
 They are not timed here (timings are what the scripts report, never test assertions); this only keeps
 them from rotting when a library signature changes (a changed return value once broke
-``bench_policy_fit.py`` without any test noticing).
+``bench_policy_fit.py`` without any test noticing). The full runs are marked slow; the checks that a bad
+flag value gives one ``argparse`` error line (exit 2, no traceback) are quick and run by default.
 """
 
 from __future__ import annotations
@@ -15,8 +16,6 @@ import pytest
 
 from lerobot_forcemap.shared_data import find_shared_data
 from tests.conftest import REPO_ROOT
-
-pytestmark = pytest.mark.slow
 
 #: script -> (arguments, a line fragment its output must hold, the real recording it reads or None)
 RUNS = {
@@ -42,12 +41,17 @@ RUNS = {
 }
 
 
+def _env() -> dict[str, str]:
+    return {**os.environ, "OPENBLAS_NUM_THREADS": "1", "HF_HUB_OFFLINE": "1", "MUJOCO_GL": "egl"}
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("script", sorted(RUNS))
 def test_script_runs(script, tmp_path):
     args, expected, recording = RUNS[script]
     if recording is not None and find_shared_data(recording) is None:
         pytest.skip(f"{recording} not found (set FORCEMAP_SHARED_DATA)")
-    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "HF_HUB_OFFLINE": "1", "MUJOCO_GL": "egl"}
+    env = _env()
     run = subprocess.run(
         [
             sys.executable,
@@ -62,3 +66,57 @@ def test_script_runs(script, tmp_path):
     )
     assert run.returncode == 0, f"{script} failed:\n{run.stdout[-2000:]}\n{run.stderr[-4000:]}"
     assert expected in run.stdout
+
+
+#: script, arguments, a fragment of the one error line (all rejected right after parsing, before any work)
+BAD_FLAGS = [
+    ("bench_elmap", ["--repeats", "0"], "--repeats must be >= 1"),
+    ("bench_elmap", ["--baseline-repeats", "0"], "--baseline-repeats must be >= 1"),
+    ("bench_envs", ["--episodes", "0"], "--episodes must be >= 1"),
+    ("bench_envs", ["--cores", "-1"], "--cores must be 0"),
+    ("bench_policy_fit", ["--runs", "0"], "--runs must be >= 1"),
+    ("bench_policy_fit", ["--dataset", "{tmp}"], "not a LeRobot dataset"),
+    ("bench_segmentation", ["--runs", "0"], "--runs must be >= 1"),
+    ("bench_segmentation", ["--data", "{tmp}/gbti_like.h5"], "not a UR5e recorder file"),
+    ("elmap_realdata", ["--n-nodes", "1"], "--n-nodes must be >= 2"),
+    ("gbti_segmentation", ["--limit", "0", "--out", "{tmp}"], "--limit must be >= 1"),
+    ("gbti_segmentation", ["--seeds", "0", "--out", "{tmp}"], "--seeds must be >= 1"),
+    ("grasp_unseen_objects", ["--seeds", "0"], "--seeds must be >= 1"),
+]
+
+
+def _run_bad(script: str, args: list[str]) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, str(REPO_ROOT / "scripts" / f"{script}.py"), *args],
+        cwd=REPO_ROOT,
+        env=_env(),
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+
+
+@pytest.mark.parametrize(
+    ("script", "args", "expected"), BAD_FLAGS, ids=lambda v: " ".join(v) if isinstance(v, list) else None
+)
+def test_bad_flag_is_one_usage_error(script, args, expected, tmp_path):
+    import h5py
+
+    with h5py.File(
+        tmp_path / "gbti_like.h5", "w"
+    ) as f:  # a GBTI-style file: object groups, no recorder groups
+        f.create_group("Plate/User1/Position1")
+    run = _run_bad(script, [a.format(tmp=tmp_path) for a in args])
+    assert run.returncode == 2, f"{script} {args}: rc {run.returncode}\n{run.stderr[-2000:]}"
+    assert "Traceback" not in run.stderr, run.stderr[-2000:]
+    assert expected in run.stderr.strip().splitlines()[-1], run.stderr[-2000:]
+
+
+def test_gbti_unknown_figure_demo_lists_the_keys(tmp_path):
+    if find_shared_data("gbti/Grasping_Demos.h5") is None:
+        pytest.skip("gbti/Grasping_Demos.h5 not found (set FORCEMAP_SHARED_DATA)")
+    run = _run_bad("gbti_segmentation", ["--figure-demo", "nope", "--out", str(tmp_path)])
+    assert run.returncode == 2, run.stderr[-2000:]
+    last = run.stderr.strip().splitlines()[-1]
+    assert "--figure-demo 'nope'" in last and "Plate/User1/Position1" in last, last
+    assert not any(tmp_path.iterdir()), "nothing is written before the flags are checked"
