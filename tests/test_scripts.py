@@ -38,6 +38,8 @@ RUNS = {
         "gbti/Grasping_Demos.h5",
     ),
     "grasp_unseen_objects": (["--seeds", "1"], "| grasp_flip | banana |", None),
+    # the same pooled score as the press ablation row "ours" in results/experiments.md
+    "segmentation_vs_phases": (["--tasks", "press"], "pooled precision 0.80, recall 0.30, F1 0.44", None),
 }
 
 
@@ -82,6 +84,7 @@ BAD_FLAGS = [
     ("gbti_segmentation", ["--limit", "0", "--out", "{tmp}"], "--limit must be >= 1"),
     ("gbti_segmentation", ["--seeds", "0", "--out", "{tmp}"], "--seeds must be >= 1"),
     ("grasp_unseen_objects", ["--seeds", "0"], "--seeds must be >= 1"),
+    ("segmentation_vs_phases", ["--datasets", "{tmp}"], "not a LeRobot dataset"),
 ]
 
 
