@@ -154,24 +154,14 @@ def test_streams_from_features():
     np.testing.assert_array_equal(by_name["position"].values, columns[layout.OBS_EE_POSE][:, :3])
 
 
+#: a short window for the small synthetic episodes (the authors' 64 frames would find nothing)
+SMALL_WINDOW = ["--window", "10", "--min-run", "5", "--grace", "1"]
+
+
 def test_cli(dataset, capsys):
     rc = forcemap_main(
-        [
-            "segment",
-            "--dataset",
-            str(dataset),
-            "--weights",
-            "joints=0",
-            "wrist_force=0.35",
-            "--window",
-            "10",
-            "--min-run",
-            "5",
-            "--grace",
-            "1",
-            "--mode",
-            "product",
-        ]
+        ["segment", "--dataset", str(dataset), "--weights", "joints=0", "wrist_force=0.35", *SMALL_WINDOW]
+        + ["--mode", "product"]
     )
     out = capsys.readouterr().out
     assert rc == 0 and "episode 1:" in out
@@ -237,18 +227,7 @@ def test_no_changepoint_note_gives_the_window_in_frames_at_the_dataset_fps(datas
 
 
 def test_changepoints_dropped_by_min_segment_length_are_printed(dataset, capsys):
-    args = [
-        "segment",
-        "--dataset",
-        str(dataset),
-        "--dry-run",
-        "--window",
-        "10",
-        "--min-run",
-        "5",
-        "--grace",
-        "1",
-    ]
+    args = ["segment", "--dataset", str(dataset), "--dry-run", *SMALL_WINDOW]
 
     def episode_0(extra: list[str]) -> str:
         assert forcemap_main(args + extra) == 0
