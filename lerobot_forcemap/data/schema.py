@@ -135,6 +135,12 @@ def _where(episode: int | str | None, frame: int | None) -> str:
     return ", ".join(parts) if parts else "frame"
 
 
+def _component(ft: Mapping[str, Any], i: int) -> str | int:
+    """Component ``i`` of a feature: its name where the feature names its components, else ``i``."""
+    names = ft.get("names") or []
+    return names[i] if i < len(names) else i
+
+
 def _unrepresentable(arr: np.ndarray, dtype: str) -> np.ndarray:
     """Mask of the values ``arr.astype(dtype)`` would not keep: float overflow to inf, integer wrap-around."""
     target = np.dtype(dtype)
@@ -190,16 +196,14 @@ def validate_frame(
             raise ValueError(f"{where}: {key!r} has non-numeric dtype {arr.dtype}")
         if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
             bad = np.flatnonzero(~np.isfinite(arr.reshape(-1)))
-            names = ft.get("names") or []
-            col = [names[i] if i < len(names) else i for i in bad]
+            col = [_component(ft, int(i)) for i in bad]
             raise ValueError(f"{where}: {key!r} is not finite at component(s) {col}")
         if np.dtype(ft["dtype"]).kind in "iu" and arr.dtype.kind == "f":
             raise ValueError(f"{where}: {key!r} must be integer ({ft['dtype']}), got {arr.dtype}")
         if (bad := _unrepresentable(arr, ft["dtype"]).reshape(-1)).any():
-            names = ft.get("names") or []
             i = int(np.argmax(bad))
             raise ValueError(
-                f"{where}: {key!r} component {names[i] if i < len(names) else i!r} = {arr.reshape(-1)[i].item()!r} "
+                f"{where}: {key!r} component {_component(ft, i)!r} = {arr.reshape(-1)[i].item()!r} "
                 f"does not fit the feature dtype {ft['dtype']}"
             )
 
@@ -261,17 +265,16 @@ def validate_episode_arrays(
             finite = np.isfinite(arr.reshape(arr.shape[0], -1))
             if not finite.all():
                 t, c = (int(v) for v in np.argwhere(~finite)[0])
-                names = ft.get("names") or []
-                col = names[c] if c < len(names) else c
-                raise ValueError(f"{where}, frame {t}: {key!r} is not finite (component {col!r})")
+                raise ValueError(
+                    f"{where}, frame {t}: {key!r} is not finite (component {_component(ft, c)!r})"
+                )
             if np.dtype(ft["dtype"]).kind in "iu":
                 raise ValueError(f"{where}: {key!r} must be integer ({ft['dtype']}), got {arr.dtype}")
         bad = _unrepresentable(arr, ft["dtype"]).reshape(arr.shape[0], -1)
         if bad.any():
             t, c = (int(v) for v in np.argwhere(bad)[0])
-            names = ft.get("names") or []
             raise ValueError(
-                f"{where}, frame {t}: {key!r} component {names[c] if c < len(names) else c!r} = "
+                f"{where}, frame {t}: {key!r} component {_component(ft, c)!r} = "
                 f"{arr.reshape(arr.shape[0], -1)[t, c].item()!r} does not fit the feature dtype {ft['dtype']}"
             )
     if not n_frames:

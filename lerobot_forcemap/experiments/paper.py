@@ -246,24 +246,21 @@ def segmentation_score(
     window. Segment counts say nothing about quality (SPEC §2). None if no fit can be scored."""
     from lerobot_forcemap.segmentation.evaluation import pooled_score, score_changepoints
 
-    scores = [
+    scored = [f for f in fits if "changepoints" in f and f.get("demo") in switches]
+    if not scored:
+        return None
+    precision, recall, f1 = pooled_score(
         score_changepoints(
             f["changepoints"][1:-1], switches[f["demo"]], tolerance=f["segmentation_window_frames"]
         )
-        for f in fits
-        if "changepoints" in f and f.get("demo") in switches
-    ]
-    if not scores:
-        return None
-    precision, recall, f1 = pooled_score(scores)
+        for f in scored
+    )
     return {
         "precision": precision,
         "recall": recall,
         "f1": f1,
-        "n_fits": len(scores),
-        "tolerance_frames": sorted(
-            {int(f["segmentation_window_frames"]) for f in fits if "changepoints" in f}
-        ),
+        "n_fits": len(scored),
+        "tolerance_frames": sorted({int(f["segmentation_window_frames"]) for f in scored}),
     }
 
 

@@ -56,6 +56,7 @@ import numpy as np  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 TASKS = ("press", "erase", "peg_in_hole")
+METHODS = ("act", "diffusion")
 SMOKE_STEPS = 3
 DEFAULT_OUT = REPO / "results" / "learned"
 DEFAULT_WORK = REPO / "outputs" / "learned"
@@ -68,8 +69,8 @@ def parse_steps(items: list[str], methods: list[str], flag: str = "--steps") -> 
     out: dict[str, int] = {}
     for item in items:
         name, _, value = item.rpartition("=")
-        if name and name not in ("act", "diffusion"):
-            raise ValueError(f"{flag}: unknown method {name!r} in {item!r} (act, diffusion)")
+        if name and name not in METHODS:
+            raise ValueError(f"{flag}: unknown method {name!r} in {item!r} ({', '.join(METHODS)})")
         try:
             number = int(value)
         except ValueError:
@@ -250,7 +251,7 @@ def main(argv: list[str] | None = None) -> int:
         description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
     )
     p.add_argument("--tasks", nargs="+", default=list(TASKS), choices=TASKS)
-    p.add_argument("--methods", nargs="+", default=["act", "diffusion"], choices=["act", "diffusion"])
+    p.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
     p.add_argument("--steps", nargs="+", default=["act=4000", "diffusion=1500"], help="N or method=N ...")
     p.add_argument("--batch-size", nargs="+", default=["act=8", "diffusion=64"], help="N or method=N ...")
     p.add_argument("--episodes", type=int, default=20)
