@@ -123,3 +123,30 @@ def test_gbti_unknown_figure_demo_lists_the_keys(tmp_path):
     last = run.stderr.strip().splitlines()[-1]
     assert "--figure-demo 'nope'" in last and "Plate/User1/Position1" in last, last
     assert not any(tmp_path.iterdir()), "nothing is written before the flags are checked"
+
+
+@pytest.mark.parametrize(
+    "module",
+    [
+        "ablations",
+        "analysis",
+        "cells",
+        "common",
+        "force_reduction",
+        "grasping",
+        "peg_in_hole",
+        "report",
+        "tuning",
+    ],
+)
+def test_stage_modules_run_alone_point_to_run_all(module):
+    """The stage modules of scripts/experiments used to exit 0 doing nothing when run directly."""
+    run = subprocess.run(
+        [sys.executable, str(REPO_ROOT / "scripts" / "experiments" / f"{module}.py")],
+        cwd=REPO_ROOT,
+        env=_env(),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert run.returncode == 1 and "run scripts/experiments/run_all.py" in run.stderr, run.stderr[-2000:]

@@ -81,3 +81,9 @@ def cells(tuning: dict[str, dict[str, Any]], s: Settings) -> list[Cell]:
                  settings={"overrides": list(base), "auto_weights": {str(k): v for k, v in auto.items()}}, design="split")
         )  # fmt: skip
     return out
+
+
+if __name__ == "__main__":  # a stage module, imported by run_all.py: running it alone did nothing, silently
+    raise SystemExit(
+        f"{__file__}: a module of run_all.py; run scripts/experiments/run_all.py (make experiments)"
+    )

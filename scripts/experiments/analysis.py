@@ -390,3 +390,9 @@ def analysis(doc: dict[str, Any], cells: list | None = None) -> list[str]:
             parts += sec + [""]
     parts += learned_section(doc)
     return parts
+
+
+if __name__ == "__main__":  # a stage module, imported by run_all.py: running it alone did nothing, silently
+    raise SystemExit(
+        f"{__file__}: a module of run_all.py; run scripts/experiments/run_all.py (make experiments)"
+    )

@@ -163,3 +163,9 @@ def demonstration_record(experiment: str, task: str, demos: tuple[int, ...]) -> 
         "failures": dict(Counter(d.get("termination_reason") or "failed" for d in recs if not d["success"])),
         "wall_time_s": None,
     }
+
+
+if __name__ == "__main__":  # a stage module, imported by run_all.py: running it alone did nothing, silently
+    raise SystemExit(
+        f"{__file__}: a module of run_all.py; run scripts/experiments/run_all.py (make experiments)"
+    )

@@ -162,3 +162,9 @@ def make_jobs(
 
 def fmt_overrides(overrides: tuple[str, ...] | list[str]) -> str:
     return ", ".join(overrides) if overrides else "defaults"
+
+
+if __name__ == "__main__":  # a stage module, imported by run_all.py: running it alone did nothing, silently
+    raise SystemExit(
+        f"{__file__}: a module of run_all.py; run scripts/experiments/run_all.py (make experiments)"
+    )

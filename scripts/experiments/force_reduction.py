@@ -65,3 +65,9 @@ def cells(tuning: dict[str, dict[str, Any]], s: Settings) -> list[Cell]:
         label = f"hybrid force/position control (threshold {hy['force_threshold']:g} N)"
         out.append(_cell(task, "hybrid", label, "hybrid", s, {"hybrid": hy}, hybrid=hy))
     return out
+
+
+if __name__ == "__main__":  # a stage module, imported by run_all.py: running it alone did nothing, silently
+    raise SystemExit(
+        f"{__file__}: a module of run_all.py; run scripts/experiments/run_all.py (make experiments)"
+    )

@@ -51,3 +51,9 @@ def cells(tuning: dict[str, Any], s: Settings) -> list[Cell]:
             settings={"overrides": []}, design="split",
         ),
     ]  # fmt: skip
+
+
+if __name__ == "__main__":  # a stage module, imported by run_all.py: running it alone did nothing, silently
+    raise SystemExit(
+        f"{__file__}: a module of run_all.py; run scripts/experiments/run_all.py (make experiments)"
+    )

@@ -735,3 +735,9 @@ def build_markdown(doc: dict[str, Any], figures: dict[str, str], analysis: list[
         "",
     ]
     return "\n".join(L)
+
+
+if __name__ == "__main__":  # a stage module, imported by run_all.py: running it alone did nothing, silently
+    raise SystemExit(
+        f"{__file__}: a module of run_all.py; run scripts/experiments/run_all.py (make experiments)"
+    )

@@ -255,3 +255,9 @@ def tune_all(s: Settings) -> dict[str, Any]:
         },
     }
     return out
+
+
+if __name__ == "__main__":  # a stage module, imported by run_all.py: running it alone did nothing, silently
+    raise SystemExit(
+        f"{__file__}: a module of run_all.py; run scripts/experiments/run_all.py (make experiments)"
+    )
