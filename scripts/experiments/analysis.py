@@ -373,9 +373,33 @@ def learned_section(doc) -> list[str]:
             "policies see the force only as an input (see their rows' `force_inputs`) and, within these CPU step budgets, "
             "neither succeed as often nor lower the force consistently."
         )
+    out += _lerobot_eval_agreement(done)
     if pending:
         out.append(f"- Pending (not trained yet when this report was built): {', '.join(pending)}.")
     return out
+
+
+def _lerobot_eval_agreement(done: list[dict[str, Any]]) -> list[str]:
+    """One line on how ``lerobot-eval``'s own run of each checkpoint compares with ours, seed by seed."""
+    compared = [r for r in done if r.get("lerobot_eval_disagreeing_seeds") is not None]
+    if not compared:
+        return []
+    agree = [f"{r['task']}/{r['method']}" for r in compared if not r["lerobot_eval_disagreeing_seeds"]]
+    differ = [
+        f"{r['task']}/{r['method']} (seeds {', '.join(map(str, r['lerobot_eval_disagreeing_seeds']))}: "
+        f"{100 * r['lerobot_eval']['success_rate']:.0f}% vs {100 * r['success_rate']:.0f}%)"
+        for r in compared
+        if r["lerobot_eval_disagreeing_seeds"]
+    ]
+    line = "- `lerobot-eval`, run on the same environment seeds, "
+    line += f"agrees seed by seed for {', '.join(agree)}" if agree else "agrees on no checkpoint seed by seed"
+    if differ:
+        line += (
+            f"; it judges other seeds for {', '.join(differ)}. lerobot-eval seeds torch once per run "
+            "(`set_seed(cfg.seed)`), our evaluation once per episode, so a policy that samples at inference "
+            "(Diffusion's denoising noise) draws other noise there; the rows report our evaluation"
+        )
+    return [line + "."]
 
 
 def analysis(doc: dict[str, Any], cells: list | None = None) -> list[str]:

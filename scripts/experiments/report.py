@@ -96,6 +96,7 @@ def learned_records(
                 "eval_wall_time_s": doc.get("eval_wall_time_s"),
                 "wall_time_s": doc.get("wall_time_s"),
                 "lerobot_eval": ran or None,
+                "lerobot_eval_disagreeing_seeds": _disagreeing_seeds(eps, ran),
                 "force_inputs": doc.get("force_inputs"),
                 "failures": _failures(eps),
             }
@@ -110,6 +111,15 @@ def learned_records(
                 }
             out.append(rec)
     return out
+
+
+def _disagreeing_seeds(eps: list[dict[str, Any]], ran: dict[str, Any]) -> list[int] | None:
+    """The seeds whose success ``lerobot-eval`` judged otherwise than our evaluation (None: not comparable)."""
+    ours = {e["seed"]: bool(e["success"]) for e in eps if "seed" in e and "success" in e}
+    seeds, successes = ran.get("seeds"), ran.get("successes")
+    if not ours or not seeds or not successes or any(s not in ours for s in seeds):
+        return None
+    return [s for s, ok in zip(seeds, successes, strict=True) if ours[s] != bool(ok)]
 
 
 def _failures(eps: list[dict[str, Any]]) -> dict[str, int]:

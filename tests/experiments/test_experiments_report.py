@@ -143,6 +143,27 @@ def test_learned_records_show_lerobot_evals_success(tmp_path):
     assert rec["label"].endswith("all 10 demos; lerobot-eval 70%)")
 
 
+def test_learned_section_names_the_seeds_lerobot_eval_judged_otherwise(tmp_path):
+    import analysis
+
+    seeds = list(range(1000, 1004))
+    for method, ran_ok in (("act", [True, False, True, False]), ("diffusion", [False, False, True, True])):
+        eps = [_episode(s, ok, 30.0, 5.0) for s, ok in zip(seeds, [True, False, True, False], strict=True)]
+        ran = {"n": 4, "seeds": seeds, "success_rate": sum(ran_ok) / 4, "successes": ran_ok}
+        doc = {"task": "press", "method": method, "train_steps": 10, "lerobot_eval": ran, "episodes": eps}
+        (tmp_path / f"press__{method}.json").write_text(json.dumps(doc))
+    recs = [r for r in report.learned_records(tmp_path, {}) if r["status"] == "done"]
+    assert {r["method"]: r["lerobot_eval_disagreeing_seeds"] for r in recs} == {
+        "act": [],
+        "diffusion": [1000, 1003],
+    }
+    line = analysis._lerobot_eval_agreement(recs)[0]
+    assert "agrees seed by seed for press/act;" in line
+    assert "press/diffusion (seeds 1000, 1003: 50% vs 50%)" in line
+    # no per-seed lerobot-eval result: nothing to compare, no claim made
+    assert analysis._lerobot_eval_agreement([{**recs[0], "lerobot_eval_disagreeing_seeds": None}]) == []
+
+
 def test_table2_and_grasp_tables_give_spreads_of_their_extra_columns():
     rec = {**_t2("erase", "ours", -40.0, -33.0, 1.0, coverage=0.95), "label": "ours", "n": 20}
     rec["metric_stds"] = {"coverage": 0.025}
