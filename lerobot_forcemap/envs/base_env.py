@@ -18,7 +18,8 @@ One control step (``1 / task.control_hz`` s, default 20 Hz):
 ``info`` always has: ``is_success``, ``protective_stop``, ``termination_reason``, ``max_contact_force`` /
 ``mean_contact_force`` (N, norm over the episode so far), ``max_contact_force_xyz`` /
 ``mean_contact_force_xyz`` (N, per base axis, of absolute values), ``contact_force`` (N, now),
-clip reports, and the task's metrics. Forces are sampled at physics rate after a first-order low-pass
+clip reports (``clip_distance`` m and ``clip_angle`` rad: how far the last target was moved), and the
+task's metrics. Forces are sampled at physics rate after a first-order low-pass
 (``force_cutoff_hz``, default 10 Hz) — raw contact transients of a few ms are not "forces felt".
 """
 
@@ -145,6 +146,11 @@ class ForceTaskEnv(gym.Env):
             ix.wrist_force.start : ix.wrist_force.stop, ix.wrist_torque.start : ix.wrist_torque.stop
         ]
         self._contact_cols = ix.contact_columns
+        # contact pairs of a held body, and the column saying whether that body touches the robot
+        self._held_pairs = np.array([i for i, b in enumerate(ix.contact_held) if b is not None], dtype=int)
+        self._held_found_cols = np.array(
+            [ix.held_found[b] for b in ix.contact_held if b is not None], dtype=int
+        )
         self._finger_cols = (
             np.concatenate([np.arange(s.start, s.stop) for s in ix.finger_sensors])
             if self._n_fingers
@@ -376,11 +382,11 @@ class ForceTaskEnv(gym.Env):
             )
         )
         n = len(buf)
-        contact_w = (
-            buf[:, self._contact_cols].reshape(n, -1, 3).sum(axis=1)
-            if len(self._contact_cols)
-            else np.zeros((n, 3))
-        )
+        pairs = buf[:, self._contact_cols].reshape(n, -1, 3)  # a copy (fancy index): safe to gate in place
+        if len(self._held_pairs):
+            # a let-go body resting on the table or peg pushes on them, not on the robot
+            pairs[:, self._held_pairs] *= (buf[:, self._held_found_cols] > 0)[:, :, None]
+        contact_w = pairs.sum(axis=1)
         contact = self._contact_filter(
             contact_w if self.frame.is_identity else self.frame.vec_to_base(contact_w)
         )
@@ -457,6 +463,7 @@ class ForceTaskEnv(gym.Env):
             "clip_orientation_invalid": clip.orientation_invalid,
             "clip_gripper": bool(self._clip_gripper),
             "clip_distance": clip.clipped_distance,
+            "clip_angle": clip.clipped_angle,
             "n_clipped_steps": self._n_clipped,
             "elapsed_s": self._steps * self.control_dt,
         }

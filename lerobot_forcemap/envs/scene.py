@@ -26,6 +26,7 @@ TARGET_SITE = "impedance_target_site"
 CAMERA = "front"
 
 # MuJoCo contact-sensor parameters: data bits (force = 2), reduction (netforce = 3), 1 slot.
+_CONTACT_DATA_FOUND = 1
 _CONTACT_DATA_FORCE = 2
 _CONTACT_REDUCE_NETFORCE = 3
 
@@ -80,7 +81,9 @@ class ContactMonitor:
 
     ``environment`` are body names (after prefixing) the robot should only touch gently (table, task
     objects); ``held`` are free bodies carried by the robot (their contacts with the environment are
-    transmitted to the wrist). Contacts inside the robot or between held bodies and the robot do not count.
+    transmitted to the wrist). Contacts inside the robot or between held bodies and the robot do not count,
+    and a held body's contacts count only while it touches the robot: once let go, its weight resting on
+    the table is no force on the robot.
     """
 
     environment: tuple[str, ...] = ("table",)
@@ -187,9 +190,24 @@ def build_scene(
             refname=tool_obj,
             intprm=[_CONTACT_DATA_FORCE, _CONTACT_REDUCE_NETFORCE, 1],
         )
+    for held in contacts.held:
+        spec.add_sensor(
+            name=held_found_sensor(held),
+            type=mujoco.mjtSensor.mjSENS_CONTACT,
+            objtype=mujoco.mjtObj.mjOBJ_BODY,
+            objname=held,
+            reftype=mujoco.mjtObj.mjOBJ_XBODY,
+            refname=f"{prefix}base",
+            intprm=[_CONTACT_DATA_FOUND, 0, 1],  # the number of contacts between the held body and the robot
+        )
     if extra_sensors is not None:
         extra_sensors(spec, prefix)
     return spec
+
+
+def held_found_sensor(body: str) -> str:
+    """Name of the sensor counting the contacts between held ``body`` and the robot."""
+    return f"held_{body}_robot"
 
 
 def _contact_pairs(contacts: ContactMonitor, robot_root: str) -> list[tuple[str, str, int]]:
@@ -225,6 +243,10 @@ class SceneIndex:
     wrist_torque: slice
     ft_quat: slice
     contact_sensors: tuple[slice, ...]
+    #: sensordata column counting each held body's contacts with the robot (``ContactMonitor.held``)
+    held_found: dict[str, int] = field(default_factory=dict)
+    #: per contact sensor: the held body it measures (environment on held body), None for environment on robot
+    contact_held: tuple[str | None, ...] = ()
     finger_sensors: tuple[slice, ...] = ()
     payload_mass: float = 0.0
     extra: dict[str, slice] = field(default_factory=dict)
@@ -245,6 +267,12 @@ def index_scene(model: mujoco.MjModel, robot: RobotSpec, extra_sensors: Sequence
     gjoints = [model.joint(f"{prefix}gripper/{j}") for j in robot.gripper.joint_names]
     gact = model.actuator(f"{prefix}gripper/actuator")
     n_contact = sum(1 for i in range(model.nsensor) if model.sensor(i).name.startswith("contact_"))
+    held = tuple(
+        model.body(model.sensor(f"contact_{i}").refid[0]).name
+        if model.sensor(f"contact_{i}").reftype[0] == mujoco.mjtObj.mjOBJ_BODY
+        else None
+        for i in range(n_contact)
+    )
     ft_body = model.body(f"{prefix}ft_sensor").id
     return SceneIndex(
         prefix=prefix,
@@ -269,6 +297,8 @@ def index_scene(model: mujoco.MjModel, robot: RobotSpec, extra_sensors: Sequence
         wrist_torque=_sensor_slice(model, "wrist_torque"),
         ft_quat=_sensor_slice(model, "ft_quat"),
         contact_sensors=tuple(_sensor_slice(model, f"contact_{i}") for i in range(n_contact)),
+        held_found={b: _sensor_slice(model, held_found_sensor(b)).start for b in held if b is not None},
+        contact_held=held,
         finger_sensors=tuple(
             _sensor_slice(model, f"{prefix}gripper/{n}") for n in robot.gripper.finger_sensor_names
         ),

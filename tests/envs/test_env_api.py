@@ -96,9 +96,16 @@ def test_clipping_is_reported_not_silent():
     obs2, _, _, _, info = env.step(far)
     assert info["target_clipped"] and info["clip_speed"] and not info["clip_workspace"]
     assert info["clip_distance"] == pytest.approx(0.2 - 0.25 * 0.05, abs=1e-4)  # obs is float32, TCP ~ target
+    assert info["clip_angle"] == pytest.approx(0.0, abs=1e-6)
+    # half a turn about the tool axis in one step: the 1 rad/s speed limit lets 0.05 rad through
+    qw, qx, qy, qz = (float(v) for v in obs2["ee_pose"][3:])
+    turned = np.array([-qz, -qy, qx, qw])  # (0, 0, 0, 1) * q: pi about base z
+    _, _, _, _, info = env.step(np.concatenate([obs2["ee_pose"][:3], turned, [1.0]]))
+    assert info["clip_speed"] and not info["clip_workspace"]
+    assert info["clip_angle"] == pytest.approx(np.pi - 0.05, abs=0.01)
     outside = np.concatenate([[0.0, 0.0, 0.2], obs["ee_pose"][3:], [1.5]])
     _, _, _, _, info = env.step(outside)
-    assert info["clip_workspace"] and info["clip_gripper"] and info["n_clipped_steps"] == 2
+    assert info["clip_workspace"] and info["clip_gripper"] and info["n_clipped_steps"] == 3
     # a new episode starts with no clip reports left over from the last one
     _, info = env.reset(seed=0)
     assert not (info["target_clipped"] or info["clip_gripper"] or info["clip_workspace"])

@@ -71,6 +71,31 @@ def test_wrist_agrees_with_contacts_through_a_held_disc():
     assert_agree(obs, info, min_force=5.0)
 
 
+def test_a_let_go_disc_is_no_force_on_the_robot():
+    """ContactMonitor: a held body's contacts count only while it touches the robot; once let go, the
+    disc's weight on the table is measured by its contact sensors but left out of the contact force."""
+    env = E.make("peg_in_hole")
+    u = env.unwrapped
+    obs, _ = env.reset(seed=3)
+    names = u.state_names["environment_state"]
+    st = dict(zip(names, obs["environment_state"].astype(float), strict=True))
+    tcp = obs["ee_pose"][:3].astype(float)
+    disc_offset = np.array([st["disc_x"], st["disc_y"], st["disc_z"]]) - tcp
+    target = np.array([st["peg_x"] - 0.09, st["peg_y"], 0.006]) - disc_offset  # disc resting on the table
+    obs, info = move_to(env, obs, target + [0, 0, 0.03], 1.0)
+    obs, info = move_to(env, obs, target, 1.0, steps=20)
+    quat = obs["ee_pose"][3:].astype(float)
+    obs, info = hold(env, np.concatenate([target, quat]), 0.0, 3)  # open: the disc stays on the table
+    obs, info = hold(env, np.concatenate([target + [0, 0, 0.04], quat]), 0.0, 5)  # hand away, < 0.5 s
+    assert info["disc_released_s"] > 0.2
+    held = [i for i, b in enumerate(u.index.contact_held) if b == "disc"]
+    on_table = u.data.sensordata[
+        np.concatenate([np.arange(s.start, s.stop) for s in (u.index.contact_sensors[i] for i in held)])
+    ]
+    assert np.linalg.norm(on_table.reshape(-1, 3).sum(axis=0)) == pytest.approx(0.05 * 9.81, rel=0.1)
+    assert np.linalg.norm(info["contact_force"]) < 1e-3, info["contact_force"]
+
+
 def test_held_disc_is_tared_after_reset():
     """SPEC §4 "tare the F/T sensor after reset": the held disc's weight (about 0.5 N) does not read as force."""
     env = E.make("peg_in_hole")
