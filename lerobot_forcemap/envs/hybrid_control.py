@@ -19,6 +19,7 @@ The policy reads the ``force`` and ``ee_pose`` observations (``lerobot_forcemap.
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,10 +41,22 @@ class HybridConfig:
     control_hz: float = 20.0
 
     def __post_init__(self):
-        if self.force_threshold <= 0 or self.stiffness <= 0:
-            raise ValueError("force_threshold and stiffness must be positive")
-        if self.force_setpoint is not None and self.force_setpoint <= 0:
-            raise ValueError("force_setpoint must be positive")
+        # NaN passes a `<= 0` test and then never engages force control (or returns NaN targets)
+        positive = ["force_threshold", "stiffness", "control_hz"]
+        if self.force_setpoint is not None:
+            positive.append("force_setpoint")
+        for name in positive:
+            value = getattr(self, name)
+            if not (isinstance(value, numbers.Real) and 0 < value < float("inf")):
+                raise ValueError(f"HybridConfig.{name} must be positive and finite, got {value!r}")
+        if not (isinstance(self.integral_gain, numbers.Real) and 0 <= self.integral_gain < float("inf")):
+            raise ValueError(
+                f"HybridConfig.integral_gain must be >= 0 and finite, got {self.integral_gain!r}"
+            )
+        if not (isinstance(self.release_fraction, numbers.Real) and 0 <= self.release_fraction < 1):
+            raise ValueError(
+                f"HybridConfig.release_fraction must be in [0, 1), got {self.release_fraction!r}"
+            )
         if self.normal is not None:
             n = np.asarray(self.normal, dtype=float)
             if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) < 1e-9:

@@ -50,6 +50,21 @@ def test_offset_and_validation():
     for normal in ((0, 0, 0), (0, 0, np.nan), (0, 1)):  # a zero normal would never engage force control
         with pytest.raises(ValueError, match="normal must be a finite non-zero 3-vector"):
             HybridConfig(normal=normal)
+    bad_settings = {
+        "force_threshold": (np.nan, 0.0, -1.0, np.inf),
+        "stiffness": (np.nan, 0.0),
+        "control_hz": (0.0, np.nan),
+        "force_setpoint": (np.nan, np.inf, 0.0),
+        "integral_gain": (-0.1, np.nan, np.inf),
+        "release_fraction": (np.nan, -0.1, 1.0),
+    }
+    for name, values in bad_settings.items():
+        for value in values:
+            with pytest.raises(ValueError, match=f"HybridConfig.{name} must be"):
+                HybridConfig(**{name: value})
+    HybridConfig(
+        force_threshold=np.float32(3.0), integral_gain=0, release_fraction=0
+    )  # numpy and int are fine
 
 
 def test_hybrid_control_lowers_the_press_force_and_still_succeeds(demo_rollouts):
