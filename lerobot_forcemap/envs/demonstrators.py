@@ -101,9 +101,14 @@ class ScriptedDemonstrator(abc.ABC):
     task: ClassVar[str]
     phases: ClassVar[tuple[str, ...]]
 
-    def __init__(
-        self, rng: np.random.Generator | int | None = None, *, control_hz: float = 20.0, state_names=None
-    ):
+    def __init__(self, rng: np.random.Generator | int, *, control_hz: float = 20.0, state_names=None):
+        if (
+            rng is None
+            or isinstance(rng, bool)
+            or not isinstance(rng, (np.random.Generator, int, np.integer))
+        ):
+            # default_rng(None) would draw OS entropy: a demonstration nobody could record again
+            raise ValueError(f"rng: a numpy Generator or an int seed, got {rng!r}")
         self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         self.dt = 1.0 / control_hz
         self.state_names = tuple(state_names) if state_names is not None else None
@@ -159,7 +164,7 @@ class PressDemonstrator(ScriptedDemonstrator):
 
     def __init__(
         self,
-        rng=None,
+        rng,
         *,
         control_hz: float = 20.0,
         state_names=None,
@@ -225,7 +230,7 @@ class PressDemonstrator(ScriptedDemonstrator):
 DEMONSTRATORS: dict[str, type[ScriptedDemonstrator]] = {"press": PressDemonstrator}
 
 
-def make_demonstrator(task: str, rng=None, **kwargs) -> ScriptedDemonstrator:
+def make_demonstrator(task: str, rng: np.random.Generator | int, **kwargs) -> ScriptedDemonstrator:
     try:
         cls = DEMONSTRATORS[task]
     except KeyError:
@@ -275,7 +280,7 @@ class EraseDemonstrator(ScriptedDemonstrator):
 
     def __init__(
         self,
-        rng=None,
+        rng,
         *,
         control_hz: float = 20.0,
         state_names=None,
@@ -360,7 +365,7 @@ class PegInHoleDemonstrator(ScriptedDemonstrator):
 
     def __init__(
         self,
-        rng=None,
+        rng,
         *,
         control_hz: float = 20.0,
         state_names=None,
@@ -515,7 +520,7 @@ class GraspDemonstrator(ScriptedDemonstrator):
 
     def __init__(
         self,
-        rng=None,
+        rng,
         *,
         control_hz: float = 20.0,
         state_names=None,

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from lerobot_forcemap.envs.demonstrators import PathPlan, Segment, SmoothNoise, min_jerk
+from lerobot_forcemap.envs.demonstrators import PathPlan, Segment, SmoothNoise, make_demonstrator, min_jerk
 from lerobot_forcemap.envs.tasks.erase import ERASE_FORCE, EraseTask
 from lerobot_forcemap.envs.tasks.press import PressTask
 
@@ -54,6 +54,18 @@ def test_demonstrators_are_seeded(demo_rollouts):
     again = roll_demos("press", [3])[0]
     first = demo_rollouts("press")[3]
     np.testing.assert_array_equal(again["actions"], first["actions"])
+
+
+@pytest.mark.parametrize("rng", [None, 1.5, "0", True])
+def test_a_demonstrator_needs_a_generator_or_a_seed(rng):
+    # None used to draw OS entropy: a demonstration nobody could record again
+    with pytest.raises(ValueError, match="rng: a numpy Generator or an int seed, got"):
+        make_demonstrator("press", rng)
+
+
+def test_an_int_seed_is_the_generator_it_seeds():
+    a, b = make_demonstrator("press", 7), make_demonstrator("press", np.random.default_rng(7))
+    assert a.rng.uniform() == b.rng.uniform()
 
 
 def test_path_plan_and_noise_helpers():
