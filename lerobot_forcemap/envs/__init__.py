@@ -42,12 +42,16 @@ Extension point — a second robot (the Kinova Gen3 with a three-finger gripper,
     protective stop, observation ``finger_force`` (+ ``info["max_finger_force"]``), rendering and the
     recorder pick up the fingertip sensors automatically.
  3. Tasks: ``tasks/grasp_push.py`` etc. subclass ``tasks.base.ForceTask`` with ``robot_name = "gen3"``,
-    ``finger_force_limit``, ``ContactMonitor(held=(object,))`` for free objects, a ``<Name>Env(ForceTaskEnv)``
+    ``finger_force_limit``, a ``ContactMonitor`` (the grasped object is an ``environment`` body: the hand
+    touching it is the force measured; ``held`` is for a body the hand carries into contact, like
+    ``peg_in_hole``'s disc), a ``<Name>Env(ForceTaskEnv)``
     with ``task_class``; add a ``TaskEntry`` in ``registration.py`` (or call ``register_task``), a
     demonstrator in ``demonstrators.py`` (``DEMONSTRATORS[name]``), an ``EnvConfig`` subclass in
     ``lerobot_env_forcemap/configs.py`` (four lines, like ``ForcemapPressEnv``; features are derived
     from the task class and robot, ``finger_force`` included) and its entry in ``ENV_TYPES``. The
-    ``robot=`` env kwarg selects any registered robot for any task.
+    ``robot=`` env kwarg selects another registered robot for a task: ``press`` and ``erase`` run on
+    either arm; ``peg_in_hole`` refuses a hand other than the parallel gripper (the disc's grip is sized
+    for it), and the grasp demonstrators need the three-finger gripper's fingertip sensors.
 """
 
 from __future__ import annotations

@@ -11,7 +11,8 @@ makes >= 20x real time possible; the policy's targets (10-20 Hz) are interpolate
 (linear + slerp) by moving the mocap body.
 
 Damping per axis: ``D = 2 * zeta * sqrt(K * Lambda_ii)`` with the operational-space inertia
-``Lambda = (J M^-1 J^T)^-1`` at the robot's home configuration (set once per model).
+``Lambda = (J M^-1 J^T)^-1`` at the episode's start configuration (set at every reset, after the IK
+places the arm; constant during the episode).
 """
 
 from __future__ import annotations

@@ -66,7 +66,8 @@ class ImpedanceGains:
 
     ``stiffness_pos`` N/m and ``stiffness_rot`` N·m/rad per axis; damping is chosen per axis as
     ``2 * damping_ratio * sqrt(K * Lambda_ii)`` with the operational-space inertia Lambda evaluated at the
-    robot's home configuration (the controller then runs entirely inside MuJoCo at physics rate).
+    episode's start configuration, at every reset (the controller then runs entirely inside MuJoCo at
+    physics rate).
     ``force_limit`` N and ``torque_limit`` N·m saturate the commanded wrench (like a real arm's limits).
     """
 
