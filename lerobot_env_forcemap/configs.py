@@ -36,14 +36,19 @@ _FEATURE_TYPES = {
 }
 
 
-def task_features(task: str, *, obs_type: str = "state", image_size: int = 128, robot: str | None = None):
-    """(features, features_map) of a task's env, from its task class and robot (imports MuJoCo)."""
+def _task_class(task: str):
+    """The ``ForceTask`` subclass of a registered task (imports its module, hence MuJoCo)."""
     import importlib
 
+    module, cls = task_entry(task).entry_point.split(":")
+    return getattr(importlib.import_module(module), cls).task_class
+
+
+def task_features(task: str, *, obs_type: str = "state", image_size: int = 128, robot: str | None = None):
+    """(features, features_map) of a task's env, from its task class and robot (imports MuJoCo)."""
     from lerobot_forcemap.envs.robots import get_robot
 
-    module, cls = task_entry(task).entry_point.split(":")
-    task_class = getattr(importlib.import_module(module), cls).task_class
+    task_class = _task_class(task)
     robot_spec = get_robot(robot or task_class.robot_name)
     sizes = {
         layout.ENV_AGENT_POS: len(robot_spec.joint_names) + 1,
@@ -111,6 +116,17 @@ class ForcemapEnvConfig(EnvConfig):
     env_state_extras: str = ""
 
     def __post_init__(self):
+        gym_id = task_entry(self.forcemap_task).gym_id
+        if self.task is None or f"{NAMESPACE}/{self.task}" != gym_id:
+            # another task's env would run under this config's features, fps and episode length
+            raise ValueError(
+                f"task: --env.type={self.type} runs {gym_id.split('/', 1)[1]!r}, got task={self.task!r} "
+                "(pick the task with --env.type, e.g. forcemap_erase)"
+            )
+        for name in ("episode_length", "image_size", "render_size"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
         if self.obs_type not in ("state", "pixels_state"):
             raise ValueError(f"obs_type must be 'state' or 'pixels_state', got {self.obs_type!r}")
         if self.render_mode != "rgb_array":
@@ -192,6 +208,14 @@ class ForcemapGraspEnvConfig(ForcemapEnvConfig):
     ``banana``), e.g. ``lerobot-eval --env.type=forcemap_grasp_push --env.object=apple``."""
 
     object: str | None = None
+
+    def __post_init__(self):
+        super().__post_init__()
+        objects = _task_class(self.forcemap_task).objects
+        if self.object is not None and self.object not in objects:  # else only make_env would say so
+            raise ValueError(
+                f"object: {self.forcemap_task} has no object {self.object!r}; choose one of {list(objects)}"
+            )
 
     @property
     def gym_kwargs(self) -> dict:

@@ -41,6 +41,23 @@ def test_an_fps_other_than_the_control_rate_is_refused(env_type):
         make_env_config(env_type, render_mode=None)  # videos listed in eval_info.json were never written
 
 
+def test_env_config_fields_are_checked_when_the_config_is_made():
+    # task used to pick another task's env under this config's features, fps and episode length
+    with pytest.raises(
+        ValueError, match="task: --env.type=forcemap_press runs 'Press-v0', got task='Erase-v0'"
+    ):
+        make_env_config("forcemap_press", task="Erase-v0")
+    with pytest.raises(ValueError, match="got task=None"):
+        make_env_config("forcemap_press", task=None)
+    for name in ("episode_length", "image_size", "render_size"):
+        for bad in (0, -5, 1.5, True):
+            with pytest.raises(ValueError, match=f"{name} must be a positive integer, got {bad!r}"):
+                make_env_config("forcemap_press", **{name: bad})
+    with pytest.raises(ValueError, match=r"object: grasp_push has no object 'pear'; choose one of \['book'"):
+        make_env_config("forcemap_grasp_push", object="pear")
+    assert make_env_config("forcemap_grasp_flip", object="banana").gym_kwargs["object"] == "banana"
+
+
 def test_make_env_and_preprocess_observation_deliver_force():
     cfg = make_env_config("forcemap_press")
     envs = make_env(cfg, n_envs=2)
