@@ -4,6 +4,7 @@ datasets (all 10 demos, CPU, small configs) and evaluated on the forcemap experi
     python scripts/experiments/learned_baselines.py --tasks press erase peg_in_hole \
         --methods act diffusion --steps act=4000 diffusion=1500 --out results/learned
     python scripts/experiments/learned_baselines.py --smoke --tasks press --out /tmp/learned --work /tmp/learned_work   # 3 steps, 2 episodes
+    python scripts/experiments/learned_baselines.py --reevaluate --tasks peg_in_hole --work /tmp/learned_work   # after an env change
 
 Per task: ``datasets/<task>`` -> derived dataset ``<work>/datasets/<task>`` whose
 ``observation.environment_state`` is ``[object state | ee_pose | force]`` (how force reaches ACT and
@@ -202,6 +203,56 @@ def run_one(
     )
 
 
+def reevaluate_one(task: str, method: str, work: Path, old: dict[str, Any]) -> dict[str, Any]:
+    """Both evaluations again on the checkpoint ``work`` holds, with the seeds and env-state extras of
+    ``old`` (its JSON), keeping its training figures: how an env change reaches the learned rows without
+    an hour of retraining. Raises ValueError when the checkpoint is missing or is not the one ``old`` reports."""
+    from lerobot_forcemap.experiments.evaluate import evaluate_policy
+    from lerobot_forcemap.experiments.learned import result_document
+
+    ckpt = work / f"{task}__{method}" / "train" / "checkpoints" / "last" / "pretrained_model"
+    if not (ckpt / "train_config.json").is_file():
+        raise ValueError(
+            f"--reevaluate {task}/{method}: no checkpoint at {ckpt} (point --work at the training's)"
+        )
+    trained = json.loads((ckpt / "train_config.json").read_text())
+    if (
+        trained.get("steps") != old["train_steps"]
+        or trained.get("batch_size") != old["config"]["training"]["batch_size"]
+    ):
+        raise ValueError(
+            f"--reevaluate {task}/{method}: {ckpt} was trained {trained.get('steps')} steps x batch "
+            f"{trained.get('batch_size')}, its JSON reports {old['train_steps']} x {old['config']['training']['batch_size']}"
+        )
+    seeds = [int(s) for s in old["seeds"]]
+    extras = tuple(old["config"]["eval"]["env_state_extras"])
+    t0 = time.perf_counter()
+    records = evaluate_policy(
+        ckpt, task, len(seeds), seeds[0], env_state_extras=",".join(extras), progress=True
+    )
+    eval_wall = time.perf_counter() - t0
+    lerobot_eval = run_lerobot_eval(
+        ckpt,
+        task,
+        work / f"{task}__{method}" / "lerobot_eval",
+        episodes=len(seeds),
+        seed=seeds[0],
+        extras=extras,
+    )
+    return result_document(
+        task,
+        method,
+        records,
+        seeds,
+        train_steps=old["train_steps"],
+        train_wall_time_s=old["train_wall_time_s"],
+        eval_wall_time_s=eval_wall,
+        config={**old["config"], "reevaluated": True},
+        force_inputs=old["force_inputs"],
+        lerobot_eval=lerobot_eval,
+    )
+
+
 def run_lerobot_eval(
     ckpt: Path, task: str, out_dir: Path, *, episodes: int, seed: int, extras: tuple[str, ...]
 ) -> dict[str, Any]:
@@ -270,7 +321,15 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--smoke", action="store_true", help=f"{SMOKE_STEPS} steps, {SMOKE_EPISODES} episodes, tiny models"
     )
+    p.add_argument(
+        "--reevaluate",
+        action="store_true",
+        help="no training: evaluate the checkpoints under --work again (seeds and extras from the JSONs "
+        "in --out, training figures kept), e.g. after an env change",
+    )
     args = p.parse_args(argv)
+    if args.reevaluate:
+        return _reevaluate(args, p)
 
     from lerobot_env_forcemap.env_state import parse_env_state_extras
     from lerobot_forcemap.data.schema import require_dataset_root
@@ -326,6 +385,27 @@ def main(argv: list[str] | None = None) -> int:
             path = args.out / f"{task}__{m}.json"
             if path.is_file():
                 docs.append(json.loads(path.read_text()))
+    print(table(docs))
+    return 0
+
+
+def _reevaluate(args: argparse.Namespace, p: argparse.ArgumentParser) -> int:
+    docs = []
+    for task in args.tasks:
+        for method in args.methods:
+            path = args.out / f"{task}__{method}.json"
+            if not path.is_file():
+                p.error(f"--reevaluate: {path} not found (train {task}/{method} first)")
+            try:
+                doc = reevaluate_one(task, method, args.work, json.loads(path.read_text()))
+            except ValueError as err:
+                p.error(str(err))
+            path.write_text(json.dumps(doc, indent=1))
+            print(
+                f"{task}/{method} re-evaluated: success {100 * doc['success_rate']:.0f}% of {doc['n']}, "
+                f"max force {doc['max_contact_force']['mean']:.1f} N -> {path}"
+            )
+            docs.append(doc)
     print(table(docs))
     return 0
 

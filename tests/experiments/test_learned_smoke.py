@@ -118,3 +118,36 @@ def test_forcemap_eval_cli_with_env_state_extras(smoke_run, tmp_path):
     smoke = json.loads((smoke_run[0] / "press__act.json").read_text())["episodes"][0]
     assert doc["episodes"][0]["max_contact_force"] == smoke["max_contact_force"]
     assert doc["episodes"][0]["steps"] == smoke["steps"]
+
+
+def test_reevaluate_repeats_the_evaluations_without_training(smoke_run, tmp_path, capsys):
+    out, work, _ = smoke_run
+    old = json.loads((out / "press__act.json").read_text())
+    (tmp_path / "press__act.json").write_text(json.dumps(old))
+    argv = [
+        "--reevaluate",
+        "--tasks",
+        "press",
+        "--methods",
+        "act",
+        "--out",
+        str(tmp_path),
+        "--work",
+        str(work),
+    ]
+    assert load_learned_baselines_script().main(argv) == 0
+    new = json.loads((tmp_path / "press__act.json").read_text())
+    assert new["config"]["reevaluated"] is True and new["train_wall_time_s"] == old["train_wall_time_s"]
+    assert [(e["seed"], e["max_contact_force"]) for e in new["episodes"]] == [
+        (e["seed"], e["max_contact_force"]) for e in old["episodes"]
+    ]
+    # a JSON whose training is not the checkpoint's is refused, naming both
+    (tmp_path / "press__act.json").write_text(json.dumps({**old, "train_steps": 4000}))
+    with pytest.raises(SystemExit) as exc:
+        load_learned_baselines_script().main(argv)
+    assert exc.value.code == 2
+    assert "was trained 3 steps x batch 4, its JSON reports 4000 x 4" in capsys.readouterr().err
+    (tmp_path / "press__act.json").unlink()
+    with pytest.raises(SystemExit):
+        load_learned_baselines_script().main(argv)
+    assert "press__act.json not found" in capsys.readouterr().err
