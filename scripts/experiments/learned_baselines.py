@@ -139,7 +139,6 @@ def run_one(
     smoke: bool,
     extras: tuple[str, ...],
 ) -> dict[str, Any]:
-    from lerobot_forcemap.experiments.evaluate import evaluate_policy
     from lerobot_forcemap.experiments.learned import (
         force_inputs_text,
         policy_config,
@@ -164,12 +163,7 @@ def run_one(
     )
     train_wall, per_step = run_training(argv, run_dir / "train.log", steps, f"train {task}/{method}")
     ckpt = train_dir / "checkpoints" / "last" / "pretrained_model"
-    t0 = time.perf_counter()
-    records = evaluate_policy(ckpt, task, episodes, seed, env_state_extras=",".join(extras), progress=True)
-    eval_wall = time.perf_counter() - t0
-    lerobot_eval = run_lerobot_eval(
-        ckpt, task, run_dir / "lerobot_eval", episodes=episodes, seed=seed, extras=extras
-    )
+    records, eval_wall, lerobot_eval = evaluate_checkpoint(ckpt, task, run_dir, episodes, seed, extras)
     train_cfg = json.loads((ckpt / "train_config.json").read_text())
     config = {
         "policy": {k: v for k, v in train_cfg["policy"].items() if k in cfg or k in _KEY_POLICY_FIELDS},
@@ -203,11 +197,25 @@ def run_one(
     )
 
 
+def evaluate_checkpoint(
+    ckpt: Path, task: str, run_dir: Path, episodes: int, seed: int, extras: tuple[str, ...]
+) -> tuple[list[dict[str, Any]], float, dict[str, Any]]:
+    """Our rollout (records with forces) and its wall time, then ``lerobot-eval`` on the same seeds."""
+    from lerobot_forcemap.experiments.evaluate import evaluate_policy
+
+    t0 = time.perf_counter()
+    records = evaluate_policy(ckpt, task, episodes, seed, env_state_extras=",".join(extras), progress=True)
+    eval_wall = time.perf_counter() - t0
+    lerobot_eval = run_lerobot_eval(
+        ckpt, task, run_dir / "lerobot_eval", episodes=episodes, seed=seed, extras=extras
+    )
+    return records, eval_wall, lerobot_eval
+
+
 def reevaluate_one(task: str, method: str, work: Path, old: dict[str, Any]) -> dict[str, Any]:
     """Both evaluations again on the checkpoint ``work`` holds, with the seeds and env-state extras of
     ``old`` (its JSON), keeping its training figures: how an env change reaches the learned rows without
     an hour of retraining. Raises ValueError when the checkpoint is missing or is not the one ``old`` reports."""
-    from lerobot_forcemap.experiments.evaluate import evaluate_policy
     from lerobot_forcemap.experiments.learned import result_document
 
     ckpt = work / f"{task}__{method}" / "train" / "checkpoints" / "last" / "pretrained_model"
@@ -225,19 +233,13 @@ def reevaluate_one(task: str, method: str, work: Path, old: dict[str, Any]) -> d
             f"{trained.get('batch_size')}, its JSON reports {old['train_steps']} x {old['config']['training']['batch_size']}"
         )
     seeds = [int(s) for s in old["seeds"]]
-    extras = tuple(old["config"]["eval"]["env_state_extras"])
-    t0 = time.perf_counter()
-    records = evaluate_policy(
-        ckpt, task, len(seeds), seeds[0], env_state_extras=",".join(extras), progress=True
-    )
-    eval_wall = time.perf_counter() - t0
-    lerobot_eval = run_lerobot_eval(
+    records, eval_wall, lerobot_eval = evaluate_checkpoint(
         ckpt,
         task,
-        work / f"{task}__{method}" / "lerobot_eval",
-        episodes=len(seeds),
-        seed=seeds[0],
-        extras=extras,
+        work / f"{task}__{method}",
+        len(seeds),
+        seeds[0],
+        tuple(old["config"]["eval"]["env_state_extras"]),
     )
     return result_document(
         task,
