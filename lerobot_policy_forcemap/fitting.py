@@ -90,6 +90,7 @@ class FitReport:
                 "n_iter": a.n_iter,
                 "stop_reason": a.stop_reason,
                 "last_step": a.last_step,
+                "last_spring_step": a.last_spring_step,
                 "n_force_points": a.n_force_points,
                 "capped_nodes": int(len(a.capped_nodes)),
                 "gripper_n_iter": g.n_iter,
@@ -417,13 +418,16 @@ def fit_skill(
                 # the EM still moved: these nodes are one iterate of many, not a fixed point
                 logger.warning(
                     "segment %d: the %s map's EM stopped at max_iter=%d without converging (%d capped "
-                    "node-axes; nodes still moved up to %.3g in the last iteration); its nodes may change "
-                    "with max_iter. A stiffer map (stiffness) caps fewer nodes.",
+                    "node-axes; nodes still moved up to %.3g and spring lengths up to %.3g in the last "
+                    "iteration, where the stop test needs both <= %.3g); its nodes may change by about that "
+                    "much with max_iter. A stiffer map (stiffness) caps fewer nodes.",
                     s,
                     what,
                     fit.n_iter,
                     len(fit.capped_nodes),
                     fit.last_step,
+                    fit.last_spring_step,
+                    fit.step_tolerance,
                 )
         segments.append(
             SegmentMaps(

@@ -88,7 +88,9 @@ class ElasticMapFit:
     labels (M,) node of every stacked demo sample; capped_nodes (C, 2) rows (node, axis) whose force
     weights were scaled down by the rho_max cap in the last iteration; last_step the largest change of a
     node coordinate in the last M-step (positions' units; 0 when the assignment repeated without force
-    points): how far from a fixed point a fit stopped at ``max_iter`` still is.
+    points) and last_spring_step the largest change of a force point's spring length Δ in that iteration
+    (0 without force points): how far from a fixed point a fit stopped at ``max_iter`` still is, against
+    step_tolerance (``xtol`` times the data's extent), the bound both must meet for ``"converged"``.
     """
 
     nodes: Array
@@ -105,6 +107,8 @@ class ElasticMapFit:
     solver: str
     energy_history: tuple[float, ...] = field(repr=False, default=())
     last_step: float = 0.0
+    last_spring_step: float = 0.0
+    step_tolerance: float = 0.0
 
     @property
     def n_nodes(self) -> int:
@@ -760,4 +764,6 @@ def fit_force_elastic_map(
         solver="clarabel" if use_clarabel else "banded",
         energy_history=tuple(history),
         last_step=last_step,
+        last_spring_step=spring_moved,
+        step_tolerance=xtol * scale,
     )

@@ -167,8 +167,13 @@ def test_a_fit_stopped_at_max_iter_is_reported(caplog):
     assert stopped  # one EM iteration does not converge on these segments
     for s in stopped:
         assert f"segment {s}: the arm map's EM stopped at max_iter=1 without converging" in caplog.text
-        step = report.summary()[s]["last_step"]
-        assert step > 0 and f"nodes still moved up to {step:.3g} in the last iteration" in caplog.text
+        step, spring = report.summary()[s]["last_step"], report.summary()[s]["last_spring_step"]
+        assert step > 0 and spring >= 0
+        assert (
+            f"nodes still moved up to {step:.3g} and spring lengths up to {spring:.3g} in the last"
+            in caplog.text
+        )
+        assert "where the stop test needs both <= " in caplog.text
     caplog.clear()
     with caplog.at_level("WARNING"):
         _fit([press_episode(0, depth=DEPTH, K=K_DEMO)])
