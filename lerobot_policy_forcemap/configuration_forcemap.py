@@ -26,6 +26,9 @@ default 15000 N/m (``lerobot_forcemap.elmap.DEFAULT_STIFFNESS``).
 
 from __future__ import annotations
 
+import logging
+import math
+import sys
 from dataclasses import MISSING, dataclass, field, fields
 
 from lerobot.configs import NormalizationMode, PreTrainedConfig
@@ -113,6 +116,24 @@ def config_error_detail(err: BaseException) -> str:
     return f"{err}" + (f" ({cause})" if cause is not None else "")
 
 
+logger = logging.getLogger(__name__)
+
+
+def _integer(value: object) -> bool:
+    """An int (not a bool): ``int(2.5)`` would pass a range test as 2, ``int("abc")`` fail without the field."""
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _decoding_with_draccus() -> bool:
+    """Whether the config is being built by draccus (``lerobot-train``/``lerobot-eval`` flags)."""
+    frame = sys._getframe(1)
+    while frame is not None:
+        if frame.f_globals.get("__name__", "").startswith("draccus."):
+            return True
+        frame = frame.f_back
+    return False
+
+
 def _positive_finite(value: object) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and 0 < value < float("inf")
 
@@ -122,8 +143,8 @@ def elmap_param_problem(name: str, value: object) -> str | None:
     base = name.removeprefix("gripper_")
     if value is None:
         return None if base in ("rho_max", "force_limit", "n_nodes") else "must be a number"
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or value != value:
-        return "must be a number"
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        return "must be a finite number"
     unit = _UNITS.get(name, "")
     if base in _NON_NEGATIVE:
         return None if value >= 0 else f"must be >= 0{unit}"
@@ -134,7 +155,7 @@ def elmap_param_problem(name: str, value: object) -> str | None:
     if base == "force_limit":
         return None if value > 0 else "must be None or > 0 N"
     if base == "n_nodes":
-        return None if int(value) == value and value >= 3 else "must be None or an integer >= 3"
+        return None if _integer(value) and value >= 3 else "must be None or an integer >= 3"
     return None
 
 
@@ -208,7 +229,8 @@ class ForceMapConfig(PreTrainedConfig):
             displacement at reset); when the segment starts it shifts by the difference between the
             observed and the predicted position (translation only: an unseen or rolled object's
             orientation says nothing about the grasp), and the junction with the segment just run is
-            blended into it (``anchoring.reanchor_segment``). False: anchors at reset only.
+            blended into it (``anchoring.reanchor_segment``). False: anchors at reset only. Only with
+            ``reanchor`` (with it off nothing is re-anchored, at reset or online).
         reanchor_tolerance: shifts below this (m) are ignored (a static object re-anchors nothing).
         reanchor_blend_s: the junction of a re-anchored segment (where the robot was sent vs the
             shifted path) fades out over this many seconds of the segment, so the object-relative
@@ -318,7 +340,14 @@ class ForceMapConfig(PreTrainedConfig):
         # streams at their defaults instead of dropping them (weight 0 drops a stream explicitly)
         self.stream_weights = {**DEFAULT_STREAM_WEIGHTS, **self.stream_weights}
         self.stream_thresholds = {**DEFAULT_STREAM_THRESHOLDS, **self.stream_thresholds}
-        self.validate_parameters()
+        try:
+            self.validate_parameters()
+        except ValueError as err:
+            if _decoding_with_draccus():
+                # draccus replaces this error by "Couldn't instantiate class ForceMapConfig" and drops its
+                # text: without this line lerobot-train would not say which --policy.* field is wrong
+                logger.error("%s", err)
+            raise
 
     # ---- checks -----------------------------------------------------------------------------------
     def validate_parameters(self) -> None:
@@ -333,9 +362,9 @@ class ForceMapConfig(PreTrainedConfig):
         need(
             isinstance(self.episodes, list)
             and len(self.episodes) > 0
-            and all(int(e) >= 0 for e in self.episodes),
+            and all(_integer(e) and e >= 0 for e in self.episodes),
             "episodes",
-            "a non-empty list of episode indices >= 0",
+            "a non-empty list of integer episode indices >= 0",
         )
         need(len(set(self.episodes)) == len(self.episodes), "episodes", "episode indices must be distinct")
         unknown = sorted(set(self.stream_weights) - set(DEFAULT_STREAM_WEIGHTS))
@@ -377,9 +406,13 @@ class ForceMapConfig(PreTrainedConfig):
             "min_segment_s",
             "must be None or finite and > 0 s",
         )
-        need(self.n_nodes is None or int(self.n_nodes) >= 3, "n_nodes", "must be None or >= 3")
+        need(
+            self.n_nodes is None or (_integer(self.n_nodes) and self.n_nodes >= 3),
+            "n_nodes",
+            "must be None or an integer >= 3",
+        )
         need(_positive_finite(self.nodes_per_second), "nodes_per_second", "must be finite and > 0")
-        need(int(self.min_nodes) >= 3, "min_nodes", "must be >= 3")
+        need(_integer(self.min_nodes) and self.min_nodes >= 3, "min_nodes", "must be an integer >= 3")
         for name in (*ELMAP_PARAMS, *GRIPPER_PARAMS):
             problem = elmap_param_problem(name, getattr(self, name))
             need(problem is None, name, str(problem))
@@ -396,13 +429,13 @@ class ForceMapConfig(PreTrainedConfig):
         )
         for name in ("anchor_radius", "static_tolerance"):
             need(getattr(self, name) > 0, name, "must be > 0")
-        need(int(self.chunk_size) >= 1, "chunk_size", "must be >= 1")
+        need(_integer(self.chunk_size) and self.chunk_size >= 1, "chunk_size", "must be an integer >= 1")
         need(
             self.control_fps is None or (0 < float(self.control_fps) < float("inf")),
             "control_fps",
             "must be None (the dataset's fps) or a positive rate in Hz",
         )
-        need(self.max_iter >= 1, "max_iter", "must be >= 1")
+        need(_integer(self.max_iter) and self.max_iter >= 1, "max_iter", "must be an integer >= 1")
         allowed = set(ELMAP_PARAMS) | set(GRIPPER_PARAMS)
         for seg, params in self.segment_overrides.items():
             bad = sorted(set(params) - allowed)

@@ -254,11 +254,12 @@ class ForceMapPolicy(PreTrainedPolicy):
         n = _batch_size(batch)
         self._check_task(batch)
         robot = _rows(batch, cfg.robot_pose_key, n) if cfg.reanchor else None
-        if robot is not None and robot.shape[1] < 7:
+        if robot is not None and robot.shape[1] != 7:
             raise ValueError(
                 f"observation {cfg.robot_pose_key!r}: needs [x y z qw qx qy qz], got width {robot.shape[1]}"
             )
-        if robot is not None and np.any(zero := np.linalg.norm(robot[:, 3:7], axis=1) < 1e-9):
+        # 1e-6, as the env's action check: a quaternion that small carries no orientation
+        if robot is not None and np.any(zero := np.linalg.norm(robot[:, 3:7], axis=1) < 1e-6):
             raise ValueError(
                 f"observation {cfg.robot_pose_key!r}: zero quaternion (qw qx qy qz) at batch row {int(np.argmax(zero))}"
             )
@@ -408,6 +409,13 @@ class ForceMapPolicy(PreTrainedPolicy):
         """Diagnostic loss: distance (m) of the demonstrated target positions to the fitted path placed
         in each sample's scene (objects from its environment state; no gradient flows to the maps)."""
         cfg, skill = self.config, self.skill
+        self._forward_calls = getattr(self, "_forward_calls", 0) + 1
+        if self._forward_calls == 2 and self.training:
+            # lerobot-train's default is 100k steps, each only this diagnostic (about 50 min on a laptop CPU)
+            logger.warning(
+                "forcemap: the maps were fitted in closed form when the policy was built; further training "
+                "steps only compute the diagnostic loss and change nothing (lerobot-train --steps=1 is enough)"
+            )
         if cfg.pose_key not in batch:
             raise ValueError(f"forward: batch has no {cfg.pose_key!r} (keys: {sorted(batch)})")
         target = _rows(batch, cfg.pose_key, _batch_size(batch))[:, :3]
@@ -515,10 +523,15 @@ def _rows(batch: dict[str, Any], key: str, n: int) -> np.ndarray:
             f"observation {key!r} is missing (keys: {sorted(k for k in batch if isinstance(k, str))})"
         )
     value = batch[key]
-    a = np.asarray(value.detach().cpu().numpy() if isinstance(value, Tensor) else value, dtype=np.float64)
-    if a.ndim <= 1 and n != 1:
+    raw = np.asarray(value.detach().cpu().numpy() if isinstance(value, Tensor) else value)
+    if raw.dtype.kind not in "fc" and raw.size:
+        # an integer pose was already rounded to whole metres by whoever built it
+        raise ValueError(f"observation {key!r}: expected floating-point values, got dtype {raw.dtype}")
+    if raw.ndim > 2:  # e.g. (batch, n_obs_steps, width): the policy reads one step
+        raise ValueError(f"observation {key!r}: expected shape (batch, width), got {tuple(raw.shape)}")
+    if raw.ndim <= 1 and n != 1:
         raise ValueError(f"observation {key!r} has no batch dimension but the batch has {n} rows")
-    a = a.reshape(n, -1)
+    a = raw.astype(np.float64).reshape(n, -1)
     if not np.all(np.isfinite(a)):
         row, col = np.argwhere(~np.isfinite(a))[0]
         raise ValueError(f"observation {key!r}: non-finite value at batch row {row}, entry {col}")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import pytest
 from lerobot.configs import NormalizationMode, PreTrainedConfig
 
@@ -37,6 +39,19 @@ def test_registered_and_lerobot_defaults():
         ({"stream_thresholds": {"position": "x"}}, "stream_thresholds"),
         ({"segment_overrides": {1: {"stifness": 2.0}}}, "segment_overrides"),
         ({"n_nodes": 2}, "n_nodes"),
+        # a fraction used to pass as its int(), a string to fail in int() without the field's name
+        ({"n_nodes": "abc"}, "n_nodes"),
+        ({"n_nodes": 4.5}, "n_nodes"),
+        ({"episodes": ["a"]}, "episodes"),
+        ({"episodes": [1.5]}, "episodes"),
+        ({"chunk_size": 2.5}, "chunk_size"),
+        ({"max_iter": 2.5}, "max_iter"),
+        ({"min_nodes": "5"}, "min_nodes"),
+        # infinite map parameters were refused only at fit time
+        ({"lam": float("inf")}, "lam"),
+        ({"stiffness": float("inf")}, "stiffness"),
+        ({"force_limit": float("inf")}, "force_limit"),
+        ({"gripper_delta": float("-inf")}, "gripper_delta"),
         ({"time_scale": -1.0}, "time_scale"),
         ({"gripper_time_scale": -1.0}, "gripper_time_scale"),
         ({"gripper_nodes_per_second": 0.0}, "gripper_nodes_per_second"),
@@ -151,3 +166,24 @@ def test_json_round_trip_keeps_every_field(tmp_path):
     assert isinstance(back, ForceMapConfig)
     for name in ForceMapConfig.field_names():
         assert getattr(back, name) == getattr(cfg, name), name
+
+
+def test_lerobot_train_names_the_field_draccus_would_hide(tmp_path):
+    """draccus turns the config's ValueError into "Couldn't instantiate class ForceMapConfig"; the field's
+    message is logged before it, so ``lerobot-train --policy.n_nodes=-5`` still says what is wrong."""
+    import subprocess
+    import sys
+
+    argv = [sys.executable, "-m", "lerobot.scripts.lerobot_train", "--policy.type=forcemap",
+            "--policy.n_nodes=-5", "--policy.push_to_hub=false", "--dataset.repo_id=local/x",
+            f"--output_dir={tmp_path / 'out'}"]  # fmt: skip
+    run = subprocess.run(argv, capture_output=True, text=True, env={**os.environ, "HF_HUB_OFFLINE": "1"})
+    assert run.returncode != 0
+    assert "Couldn't instantiate class ForceMapConfig" in run.stderr + run.stdout
+    assert "ForceMapConfig.n_nodes: must be None or an integer >= 3, got -5" in run.stderr + run.stdout
+
+
+def test_a_bad_config_from_python_is_not_logged_twice(caplog):
+    with caplog.at_level("ERROR"), pytest.raises(ValueError, match="ForceMapConfig.n_nodes"):
+        ForceMapConfig(device="cpu", n_nodes=-5)
+    assert not caplog.records  # the raised error says it; the log line is for draccus' callers only

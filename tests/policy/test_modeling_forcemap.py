@@ -105,6 +105,20 @@ def test_forward_is_a_diagnostic_loss_without_gradient_effect(policy):
     policy.eval()
 
 
+def test_a_second_training_step_says_it_changes_nothing(press_checkpoint, caplog):
+    fitted = ForceMapPolicy.from_pretrained(press_checkpoint)  # a fresh one: it counts its forward calls
+    batch = _scene()
+    batch["action"] = torch.tensor([[0.5, 0.0, 0.04, 0.0, 1.0, 0.0, 0.0, 1.0]])
+    fitted.train()
+    with caplog.at_level("WARNING"):
+        fitted.forward(batch)
+        assert "--steps=1 is enough" not in caplog.text  # the one step lerobot-train needs
+        fitted.forward(batch)
+        fitted.forward(batch)
+    assert caplog.text.count("lerobot-train --steps=1 is enough") == 1
+    fitted.eval()
+
+
 def test_missing_observation_and_unfitted_policy_are_clear_errors(policy):
     obs = _scene()
     del obs["observation.environment_state"]
@@ -121,6 +135,38 @@ def test_missing_observation_and_unfitted_policy_are_clear_errors(policy):
     empty = ForceMapPolicy(ForceMapConfig(device="cpu"))
     with pytest.raises(ValueError, match="not fitted"):
         empty.select_action(_scene())
+
+
+def test_a_pose_of_the_wrong_shape_or_dtype_is_refused(policy):
+    # a stacked (batch, steps, 7) pose used to be flattened and its first step read as the robot pose,
+    # an (batch, 8) one cut to 7, an integer one read as whole metres
+    obs = _scene()
+    bad = {
+        "stacked": (
+            obs["observation.ee_pose"][:, None].repeat(1, 2, 1),
+            r"expected shape \(batch, width\), got \(1, 2, 7\)",
+        ),
+        "wide": (
+            torch.cat([obs["observation.ee_pose"], torch.zeros(1, 1)], dim=1),
+            "needs \\[x y z qw qx qy qz\\], got width 8",
+        ),
+        "integer": (
+            obs["observation.ee_pose"].round().long(),
+            "expected floating-point values, got dtype int64",
+        ),
+        "tiny quaternion": (
+            obs["observation.ee_pose"].clone().index_fill_(1, torch.arange(3, 7), 1e-7),
+            "zero quaternion",
+        ),
+    }
+    for pose, message in bad.values():
+        policy.reset()
+        with pytest.raises(ValueError, match=f"observation 'observation.ee_pose': {message}"):
+            policy.select_action({**obs, "observation.ee_pose": pose})
+    policy.reset()
+    assert policy.select_action(
+        {**obs, "observation.ee_pose": obs["observation.ee_pose"].double()}
+    ).shape == (1, 8)
 
 
 def test_an_env_of_another_task_is_refused(policy):
