@@ -391,9 +391,7 @@ class ForceMapConfig(PreTrainedConfig):
             self.changepoints in CHANGEPOINT_METHODS, "changepoints", f"must be one of {CHANGEPOINT_METHODS}"
         )
         need(
-            isinstance(self.segmentation_seed, int)
-            and not isinstance(self.segmentation_seed, bool)
-            and self.segmentation_seed >= 0,
+            _integer(self.segmentation_seed) and self.segmentation_seed >= 0,
             "segmentation_seed",
             "must be an integer >= 0",
         )

@@ -91,6 +91,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         self.fit_report: FitReport | None = None
         self._skill: FittedSkill | None = None
         self._warned_clock = False  # the control_fps warning: once per policy, not per episode
+        self._forward_calls = 0  # training steps seen: the second one says it changes nothing
         if dataset_meta is not None and config.pretrained_path is None:
             config.check_unfitted()
             self.fit_dataset(
@@ -409,7 +410,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         """Diagnostic loss: distance (m) of the demonstrated target positions to the fitted path placed
         in each sample's scene (objects from its environment state; no gradient flows to the maps)."""
         cfg, skill = self.config, self.skill
-        self._forward_calls = getattr(self, "_forward_calls", 0) + 1
+        self._forward_calls += 1
         if self._forward_calls == 2 and self.training:
             # lerobot-train's default is 100k steps, each only this diagnostic (about 50 min on a laptop CPU)
             logger.warning(
@@ -524,7 +525,7 @@ def _rows(batch: dict[str, Any], key: str, n: int) -> np.ndarray:
         )
     value = batch[key]
     raw = np.asarray(value.detach().cpu().numpy() if isinstance(value, Tensor) else value)
-    if raw.dtype.kind not in "fc" and raw.size:
+    if raw.dtype.kind != "f" and raw.size:
         # an integer pose was already rounded to whole metres by whoever built it
         raise ValueError(f"observation {key!r}: expected floating-point values, got dtype {raw.dtype}")
     if raw.ndim > 2:  # e.g. (batch, n_obs_steps, width): the policy reads one step
