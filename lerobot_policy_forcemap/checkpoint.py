@@ -174,7 +174,7 @@ def check_processor_files(folder: str | Path, *, required: bool, warn_missing: b
         if not isinstance(steps, list):
             raise ValueError(f"{path}: expected a 'steps' list, got {type(steps).__name__}")
         for i, step in enumerate(steps):
-            _check_step_class(step, f"{path}: steps[{i}]")
+            _check_step_config(_check_step_class(step, f"{path}: steps[{i}]"), step, f"{path}: steps[{i}]")
             state_file = step.get("state_file")
             if state_file is None:
                 continue
@@ -207,8 +207,8 @@ def check_processor_files(folder: str | Path, *, required: bool, warn_missing: b
 TRUSTED_STEP_MODULES = ("lerobot", "lerobot_policy_forcemap")
 
 
-def _check_step_class(step: object, where: str) -> None:
-    """Raise ``ValueError`` unless ``step`` names a processor step LeRobot may safely build."""
+def _check_step_class(step: object, where: str) -> type:
+    """The processor step class ``step`` names; ``ValueError`` unless LeRobot may safely build it."""
     import importlib
 
     from lerobot.processor import ProcessorStep, ProcessorStepRegistry
@@ -222,7 +222,7 @@ def _check_step_class(step: object, where: str) -> None:
                 f"{where}.registry_name {name!r} is not a registered LeRobot processor step "
                 f"(known: {', '.join(sorted(ProcessorStepRegistry.list()))})"
             )
-        return
+        return ProcessorStepRegistry.get(name)
     path = step.get("class")
     if not isinstance(path, str) or "." not in path:
         raise ValueError(f"{where}: needs 'registry_name' or 'class' (module.ClassName), got {path!r}")
@@ -238,6 +238,26 @@ def _check_step_class(step: object, where: str) -> None:
         raise ValueError(f"{where}.class {path!r} cannot be imported ({err})") from err
     if not (isinstance(cls, type) and issubclass(cls, ProcessorStep)):
         raise ValueError(f"{where}.class {path!r} is not a LeRobot ProcessorStep")
+    return cls
+
+
+def _check_step_config(cls: type, step: dict, where: str) -> None:
+    """``step["config"]`` holds only arguments of ``cls`` (LeRobot calls ``cls(**config)`` and reports an
+    unexpected one without naming the file)."""
+    import inspect
+
+    config = step.get("config", {})
+    if not isinstance(config, dict):
+        raise ValueError(f"{where}.config: expected an object, got {type(config).__name__}")
+    params = inspect.signature(cls).parameters
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        return
+    unknown = sorted(set(config) - set(params))
+    if unknown:
+        raise ValueError(
+            f"{where}.config: unknown key(s) {', '.join(map(repr, unknown))} for {cls.__name__} "
+            f"(it takes: {', '.join(params)})"
+        )
 
 
 #: the files of a checkpoint on the Hub, the processor pipelines optional (``from_pretrained`` alone

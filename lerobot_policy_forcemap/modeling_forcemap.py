@@ -203,7 +203,12 @@ class ForceMapPolicy(PreTrainedPolicy):
             # a Hub repo id: fetch the files, then check them as a local folder is checked
             _check_repo_id_shape(pretrained_name_or_path)
             hub_kwargs = {k: kwargs[k] for k in _HUB_KWARGS if k in kwargs}
-            path = pretrained_name_or_path = fetch_hub_checkpoint(str(pretrained_name_or_path), hub_kwargs)
+            try:
+                path = pretrained_name_or_path = fetch_hub_checkpoint(
+                    str(pretrained_name_or_path), hub_kwargs
+                )
+            except ValueError as err:  # "outputs/polcy" reads as a repo id too: say the folder is missing
+                raise ValueError(f"{err} (and there is no local folder {str(path)!r})") from err
         where = path / "config.json"
         stored = _read_config(pretrained_name_or_path, where)
         if config is None:

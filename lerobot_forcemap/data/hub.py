@@ -30,14 +30,15 @@ CARD_FILE = "meta/forcemap_card.json"
 DATASET_UPLOAD_PATTERNS = ("data/*", "meta/*", "videos/*", "README.md", ".gitattributes")
 
 
-def check_repo_id(repo_id: str) -> str:
-    """``repo_id`` if it reads ``owner/name`` under the Hub's naming rules, else a ValueError naming it."""
+def check_repo_id(repo_id: str, name: str = "repo_id") -> str:
+    """``repo_id`` if it reads ``owner/name`` under the Hub's naming rules, else a ValueError naming it
+    (as ``name``: the argument or flag it came from)."""
     if not isinstance(repo_id, str) or repo_id.count("/") != 1 or not all(repo_id.split("/")):
-        raise ValueError(f"repo_id must be 'owner/name', got {repo_id!r}")
+        raise ValueError(f"{name} must be 'owner/name', got {repo_id!r}")
     try:
         validate_repo_id(repo_id)  # allowed characters, no leading '.', no '--', no '.git' ending
     except HFValidationError as err:
-        raise ValueError(f"repo_id must be 'owner/name' ({err}), got {repo_id!r}") from None
+        raise ValueError(f"{name} must be 'owner/name' ({err}), got {repo_id!r}") from None
     return repo_id
 
 

@@ -97,6 +97,7 @@ def fit_policy(
         json.dumps(
             {
                 "dataset": str(Path(root).resolve()),  # forcemap eval's default comparison, from any cwd
+                "dataset_repo_id": meta.repo_id,  # forcemap push's model card links it unless local/...
                 "episodes": list(report.episodes),
                 "fps": cfg.fps,
                 "changepoints": [c.tolist() for c in report.changepoints],

@@ -1,7 +1,8 @@
 """``forcemap push``: share a dataset or a fitted policy on the Hugging Face Hub.
 
     forcemap push --dataset datasets/press --repo-id you/press-demos [--private] [--tag ur5e ...]
-    forcemap push --policy outputs/press_policy --repo-id you/forcemap-press [--private]
+    forcemap push --policy outputs/press_policy --repo-id you/forcemap-press [--private] \
+        [--dataset-repo-id you/press-demos]
 
 A dataset goes up through :func:`lerobot_forcemap.data.hub.push_dataset` (LeRobot's dataset push, with
 our card: units, frames, sources). A policy folder (``forcemap fit --out`` or lerobot-train's
@@ -9,7 +10,9 @@ our card: units, frames, sources). A policy folder (``forcemap fit --out`` or le
 here with the loader's message (safetensors only, nothing unpickled); then its config and weights, its
 pre-/post-processor files, the fit report and a model card go to one model repo in a single commit,
 which is what ``lerobot-eval --policy.path=<repo_id>`` and ``ForceMapPolicy.from_pretrained(<repo_id>)``
-read back.
+read back. The card's ``datasets:`` field names the Hub dataset the policy was fitted from:
+``--dataset-repo-id``, else the one lerobot-train (``train_config.json``) or ``forcemap fit --repo-id``
+(``fit_report.json``) recorded; a ``local/...`` id names none.
 Needs a token (``hf auth login`` or ``HF_TOKEN``) and network access (unset ``HF_HUB_OFFLINE``).
 """
 
@@ -29,8 +32,11 @@ __all__ = ["POLICY_UPLOAD_PATTERNS", "push_policy", "add_arguments", "run"]
 POLICY_UPLOAD_PATTERNS = ("*.safetensors", "*.json", "*.md")
 
 
-def push_policy(path: str | Path, repo_id: str, *, private: bool | None = None) -> str:
+def push_policy(
+    path: str | Path, repo_id: str, *, private: bool | None = None, dataset_repo_id: str | None = None
+) -> str:
     """Push the forcemap checkpoint folder ``path`` to the model repo ``repo_id``; returns its URL.
+    ``dataset_repo_id``: the Hub dataset it was fitted from, for the card (default: the recorded one).
 
     Everything is loaded and checked first (policy, both processor pipelines), then written to one
     temporary folder with a model card and uploaded in a single commit: a bad file fails before
@@ -45,6 +51,8 @@ def push_policy(path: str | Path, repo_id: str, *, private: bool | None = None) 
     from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
 
     check_repo_id(repo_id)
+    if dataset_repo_id is not None:
+        check_repo_id(dataset_repo_id, "--dataset-repo-id")
     path = Path(path)
     if not (path / "config.json").is_file():
         raise ValueError(f"{path}: not a policy checkpoint folder (no config.json)")
@@ -52,6 +60,7 @@ def push_policy(path: str | Path, repo_id: str, *, private: bool | None = None) 
     check_processor_files(path, required=True)
     pre, post = make_pre_post_processors(policy.config, pretrained_path=str(path))
     report = _fit_report(path)
+    dataset_repo_id = dataset_repo_id or _recorded_dataset_repo_id(path)
     # as lerobot-train's push does: the pushed config and the card's usage line name the repo
     policy.config.repo_id = repo_id
     if private is not None:
@@ -63,7 +72,7 @@ def push_policy(path: str | Path, repo_id: str, *, private: bool | None = None) 
         post.save_pretrained(staged)
         if report is not None:
             (staged / FIT_REPORT).write_text(json.dumps(report, indent=2))
-        _model_card(policy, report).save(str(staged / "README.md"))
+        _model_card(policy, report, dataset_repo_id).save(str(staged / "README.md"))
         api = HfApi()
         repo_id = api.create_repo(repo_id=repo_id, private=private, exist_ok=True).repo_id
         api.upload_folder(
@@ -91,11 +100,23 @@ def _fit_report(path: Path) -> dict | None:
     return report
 
 
-def _model_card(policy, report: dict | None):
+def _recorded_dataset_repo_id(path: Path) -> str | None:
+    """The Hub dataset id lerobot-train (``train_config.json``) or ``forcemap fit`` (``fit_report.json``)
+    recorded next to the checkpoint; None for ``local/...`` ids (a dataset never on the Hub)."""
+    for name, keys in (("train_config.json", ("dataset", "repo_id")), (FIT_REPORT, ("dataset_repo_id",))):
+        if not (path / name).is_file():
+            continue
+        value = read_json_object(path / name)
+        for key in keys:
+            value = value.get(key) if isinstance(value, dict) else None
+        if isinstance(value, str) and value.count("/") == 1 and not value.startswith("local/"):
+            return value
+    return None
+
+
+def _model_card(policy, report: dict | None, dataset_repo_id: str | None):
     """LeRobot's model card (as ``lerobot-train --policy.push_to_hub`` writes it) plus what the fit found."""
     config = policy.config
-    dataset = report.get("dataset") if report else None
-    dataset_repo_id = dataset if isinstance(dataset, str) and dataset.count("/") == 1 else None
     card = policy.generate_model_card(dataset_repo_id, config.type, config.license, config.tags)
     lines = [
         "",
@@ -123,6 +144,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repo-id", required=True, help="owner/name on the Hub")
     parser.add_argument("--private", action="store_true", help="create the repo private")
     parser.add_argument(
+        "--dataset-repo-id",
+        default=None,
+        help="policies only: the Hub dataset it was fitted from, for the model card "
+        "(default: the id lerobot-train or forcemap fit --repo-id recorded)",
+    )
+    parser.add_argument(
         "--tag",
         dest="tags",
         action="append",
@@ -134,10 +161,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     private = True if args.private else None
     if args.dataset:
+        if args.dataset_repo_id:
+            raise ValueError(
+                "--dataset-repo-id applies to policies only (--repo-id names the dataset's repo)"
+            )
         url = push_dataset(args.dataset, args.repo_id, private=private, tags=args.tags)
     else:
         if args.tags:
             raise ValueError("--tag applies to datasets only")
-        url = push_policy(args.policy, args.repo_id, private=private)
+        url = push_policy(args.policy, args.repo_id, private=private, dataset_repo_id=args.dataset_repo_id)
     print(f"pushed to {url}")
     return 0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from unittest import mock
 
 import pytest
@@ -125,3 +126,71 @@ def test_forcemap_push_cli_dataset(tmp_path, capsys):
         repo_id="someone/press-demo", private=True, repo_type="dataset", exist_ok=True
     )
     assert "- ur5e" in card_push.call_args.args[0].content
+
+
+def test_a_pushed_dataset_loads_back_through_lerobots_hub_download(tmp_path, monkeypatch):
+    """Push the shipped press demonstrations (mocked HfApi: what upload_folder sends lands in a fake Hub
+    folder), then load ``someone/press-demos`` by repo id alone, through LeRobot's snapshot_download path
+    (the fake copies from that folder): same frames and force values, and the policy fits from it
+    bit-identically to a fit from the local folder."""
+    import shutil
+
+    import huggingface_hub
+    import lerobot.datasets.dataset_metadata as dataset_metadata
+    import lerobot.datasets.lerobot_dataset as lerobot_dataset
+    import numpy as np
+    import torch
+    from huggingface_hub.utils import filter_repo_objects
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset, LeRobotDatasetMetadata
+    from lerobot.policies.factory import make_policy
+
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+    from lerobot_policy_forcemap.modeling_forcemap import SKILL_TENSORS
+
+    from ..conftest import REPO_ROOT
+
+    shipped = REPO_ROOT / "datasets" / "press"
+    repo = "someone/press-demos"
+    hub = tmp_path / "hub" / repo
+
+    def upload_folder(*, folder_path, allow_patterns=None, ignore_patterns=None, **kw):
+        files = [p.relative_to(folder_path).as_posix() for p in Path(folder_path).rglob("*") if p.is_file()]
+        for rel in filter_repo_objects(files, allow_patterns=allow_patterns, ignore_patterns=ignore_patterns):
+            (hub / rel).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(Path(folder_path) / rel, hub / rel)
+
+    def snapshot_download(repo_id, *, repo_type, local_dir=None, cache_dir=None, **kw):
+        assert repo_id == repo and repo_type == "dataset"
+        dest = Path(local_dir) if local_dir is not None else tmp_path / "hub-cache" / repo_id
+        shutil.copytree(hub, dest, dirs_exist_ok=True)
+        return str(dest)
+
+    with (
+        mock.patch("lerobot.datasets.lerobot_dataset.HfApi") as api_cls,
+        mock.patch.object(huggingface_hub.DatasetCard, "push_to_hub", autospec=True),
+    ):
+        api_cls.return_value.upload_folder.side_effect = upload_folder
+        push_dataset(shipped, repo)
+    assert (hub / "meta" / "info.json").is_file() and (hub / "meta" / "forcemap_card.json").is_file()
+
+    monkeypatch.setattr(dataset_metadata, "HF_LEROBOT_HOME", tmp_path / "lerobot-home")  # nothing local
+    for module in (dataset_metadata, lerobot_dataset):
+        monkeypatch.setattr(module, "snapshot_download", snapshot_download)
+        monkeypatch.setattr(module, "get_safe_version", lambda repo_id, revision, **kw: revision)
+    from_hub, local = LeRobotDataset(repo), LeRobotDataset("local/press", root=shipped)
+    assert from_hub.root == tmp_path / "hub-cache" / repo  # downloaded, not found locally
+    assert from_hub.num_frames == local.num_frames and from_hub.num_episodes == local.num_episodes
+    assert from_hub.features["observation.force"] == local.features["observation.force"]
+    for i in (0, local.num_frames // 2, local.num_frames - 1):
+        torch.testing.assert_close(
+            from_hub[i]["observation.force"], local[i]["observation.force"], rtol=0, atol=0
+        )
+
+    fitted = [
+        make_policy(ForceMapConfig(device="cpu"), ds_meta=meta)
+        for meta in (LeRobotDatasetMetadata(repo), LeRobotDatasetMetadata("local/press", root=shipped))
+    ]
+    for name in SKILL_TENSORS:
+        np.testing.assert_array_equal(
+            getattr(fitted[0], name).numpy(), getattr(fitted[1], name).numpy(), name
+        )

@@ -3,7 +3,14 @@
 import numpy as np
 import pytest
 
-from lerobot_forcemap.envs.demonstrators import PathPlan, Segment, SmoothNoise, make_demonstrator, min_jerk
+from lerobot_forcemap.envs.demonstrators import (
+    PathPlan,
+    Segment,
+    SmoothNoise,
+    make_demonstrator,
+    min_jerk,
+    run_episode,
+)
 from lerobot_forcemap.envs.tasks.erase import ERASE_FORCE, EraseTask
 from lerobot_forcemap.envs.tasks.press import PressTask
 
@@ -54,6 +61,22 @@ def test_demonstrators_are_seeded(demo_rollouts):
     again = roll_demos("press", [3])[0]
     first = demo_rollouts("press")[3]
     np.testing.assert_array_equal(again["actions"], first["actions"])
+
+
+@pytest.mark.parametrize("task", [*TASK_NAMES, "grasp_push", "grasp_flip"])
+def test_the_demonstrator_draws_its_noise_from_its_own_generator(task):
+    """Same scene (env seed 0), two demonstrator seeds: the first 30 commands differ by millimetres."""
+    import lerobot_forcemap.envs as E
+
+    env = E.make(task)
+    names = env.unwrapped.state_names["environment_state"]
+    actions = []
+    for seed in (1, 2, 1):
+        frames, _ = run_episode(env, make_demonstrator(task, seed, state_names=names), 0, max_steps=30)
+        actions.append(np.array([f[1] for f in frames]))
+    env.close()
+    np.testing.assert_array_equal(actions[0], actions[2])
+    assert np.abs(actions[0] - actions[1]).max() > 1e-3
 
 
 @pytest.mark.parametrize("rng", [None, 1.5, "0", True])

@@ -57,7 +57,7 @@ def test_observation_layout_matches_state_names():
 def test_bad_actions_and_options_raise():
     env = E.make("press")
     obs, _ = env.reset(seed=0)
-    with pytest.raises(ValueError, match="shape"):
+    with pytest.raises(ValueError, match=r"action must have shape \(8,\) .* got \(7,\)"):
         env.step(np.zeros(7))
     a = np.concatenate([obs["ee_pose"], [1.0]])
     for shape in [(2, 4), (8, 1), (1, 8)]:  # eight numbers, but not an action: not flattened silently

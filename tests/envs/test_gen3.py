@@ -109,6 +109,8 @@ def test_gripper_closure_maps_round_trip_and_fingertips_follow_the_kinematics():
         for finger in FINGERS:
             sim = rot.T @ (u.data.site_xpos[u.model.site(f"gen3/gripper/{finger}_tip").id] - tcp)
             np.testing.assert_allclose(sim, pad_position(finger, closure) - [0, 0, TCP_Z], atol=2e-3)
-    with pytest.raises(ValueError, match="finger"):
+    with pytest.raises(
+        ValueError, match=r"finger must be one of \('thumb', 'finger1', 'finger2'\), got 'pinky'"
+    ):
         pad_position("pinky", 0.5)
     env.close()

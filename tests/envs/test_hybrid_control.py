@@ -41,7 +41,7 @@ def test_offset_and_validation():
     pol = HybridForcePositionPolicy(DEMO)
     pol.reset(offset=[0.01, 0, 0])
     assert pol.act(obs(0.0))[0] == pytest.approx(0.51)
-    with pytest.raises(ValueError, match="shape"):
+    with pytest.raises(ValueError, match=r"demo_actions must have shape \(T, 8\) with T >= 1, got \(5, 7\)"):
         HybridForcePositionPolicy(np.zeros((5, 7)))
     bad = DEMO.copy()
     bad[3, 0] = np.nan

@@ -135,7 +135,7 @@ def test_job_keys_and_validation():
     assert a.key() != Job("press", "ours", "forcemap", 0, (1000,), overrides=("stiffness=2000",)).key()
     assert fit_key(a) == fit_key(Job("press", "other", "forcemap", 0, (7,), overrides=("stiffness=2000",)))
     assert fit_key(a) != fit_key(Job("press", "ours", "forcemap", 1, (1000,), overrides=("stiffness=2000",)))
-    with pytest.raises(ValueError, match="kind"):
+    with pytest.raises(ValueError, match="Job.kind: expected forcemap, hybrid or replay, got 'magic'"):
         Job("press", "x", "magic", 0, (1,))
     with pytest.raises(ValueError, match="no seeds"):
         Job("press", "x", "hybrid", 0, ())

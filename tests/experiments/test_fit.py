@@ -29,6 +29,7 @@ def test_cli_fit_writes_a_loadable_checkpoint(press_dataset, press_checkpoint, t
         assert torch.equal(getattr(a, name), getattr(b, name)), name
     report = json.loads((out / "fit_report.json").read_text())
     assert report["episodes"] == [0] and len(report["segments"]) == a.config.n_segments
+    assert report["dataset_repo_id"] == f"local/{press_dataset.name}"  # no --repo-id: not a Hub dataset
     with pytest.raises(ValueError, match="exists and is not empty"):
         main(["fit", "--dataset", str(press_dataset), "--out", str(out)])
 
@@ -61,8 +62,11 @@ def test_cli_fit_settings_and_episodes(press_dataset, tmp_path):
         "segment_column=demo_phase",
         "--set",
         "stiffness=2500",
+        "--repo-id",
+        "lab/press-demos",
     ]
     assert main(args) == 0
+    assert json.loads((out / "fit_report.json").read_text())["dataset_repo_id"] == "lab/press-demos"
     cfg = ForceMapPolicy.from_pretrained(out).config
     assert cfg.episodes == [0, 1, 2] and cfg.stiffness == 2500.0 and cfg.segments == "dataset"
 

@@ -222,9 +222,9 @@ def test_train_command_flags():
         json.loads(next(a for a in act if "normalization_mapping" in a).split("=", 1)[1])["ENV"] == "MEAN_STD"
     )
     assert not any("warmup" in a for a in act)
-    with pytest.raises(ValueError, match="steps"):
+    with pytest.raises(ValueError, match="steps must be >= 1, got 0"):
         train_command("act", "/d", "/o", steps=0, config={})
-    with pytest.raises(ValueError, match="method"):
+    with pytest.raises(ValueError, match=r"method must be one of \['act', 'diffusion'\], got 'pi0'"):
         policy_config("pi0")
 
 
@@ -292,7 +292,7 @@ def test_result_document_schema_and_numbers():
         )
 
 
-def test_script_parse_steps():
+def test_script_parse_steps(capsys):
     mod = load_learned_baselines_script()
     assert mod.parse_steps(["300"], ["act", "diffusion"]) == {"act": 300, "diffusion": 300}
     assert mod.parse_steps(["act=5", "diffusion=7"], ["act", "diffusion"]) == {"act": 5, "diffusion": 7}
@@ -303,5 +303,10 @@ def test_script_parse_steps():
     with pytest.raises(ValueError, match=r"--steps: 'act=abc' is not N or method=N"):
         mod.parse_steps(["act=abc"], ["act"])
     # a smoke run must not replace the trained checkpoints or the results the report merges
-    with pytest.raises(SystemExit):
+    with pytest.raises(SystemExit) as exc:
         mod.main(["--smoke", "--tasks", "press", "--out", "/tmp/never"])
+    assert exc.value.code == 2
+    assert (
+        "--smoke needs --out and --work outside results/learned and outputs/learned"
+        in capsys.readouterr().err
+    )

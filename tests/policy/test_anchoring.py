@@ -78,14 +78,17 @@ def test_moved_object_moves_anchored_segments_rigidly_and_robot_start_is_exact(s
     np.testing.assert_allclose(a[:3], robot[:3], atol=1e-9)
 
 
-def test_rotated_object_rotates_anchored_segments(skill):
+def test_rotated_object_rotates_anchored_segments():
+    # pressed 2 cm off the box's z-axis, so a turn about z moves the anchored nodes (on-axis ones would not)
+    skill, _ = fit_skill([press_episode(0, lateral=0.02)], CFG, 20.0, OBJECT_NAMES)
     q = rotvec_to_quat(np.array([0.0, 0.0, np.pi / 2]))
     box = np.array([0.5, 0.0, 0.03])
     rep = _place(skill, None, _pose(box, q))
     for s in (1, 2, 3):
-        np.testing.assert_allclose(
-            rep.segments[s].nodes - box, quat_rotate(q, skill.segments[s].nodes), atol=1e-12
-        )
+        local = skill.segments[s].nodes
+        np.testing.assert_allclose(rep.segments[s].nodes - box, quat_rotate(q, local), atol=1e-12)
+        # the turn moved them: x ~ 0.02 in the box frame became y ~ 0.02 in the base frame
+        assert np.min(np.linalg.norm(rep.segments[s].nodes - box - local, axis=1)) > 0.02
         np.testing.assert_allclose(
             rep.segments[s].orientations, quat_multiply(q, skill.segments[s].orientations), atol=1e-12
         )

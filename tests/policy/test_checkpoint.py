@@ -245,6 +245,26 @@ def test_processor_steps_must_be_lerobot_processors(ckpt, tmp_path, step, messag
     assert not marker.exists()
 
 
+def test_an_unknown_processor_step_setting_names_the_file(ckpt):
+    """LeRobot builds a step as cls(**config) and reports a stray key without naming the file."""
+    pipeline = json.loads((ckpt / "policy_preprocessor.json").read_text())
+    device = next(
+        i for i, st in enumerate(pipeline["steps"]) if st.get("registry_name") == "device_processor"
+    )
+    pipeline["steps"][device]["config"]["bogus"] = 1
+    (ckpt / "policy_preprocessor.json").write_text(json.dumps(pipeline))
+    with pytest.raises(
+        ValueError,
+        match=rf"policy_preprocessor\.json: steps\[{device}\]\.config: unknown key\(s\) 'bogus' for "
+        r"DeviceProcessorStep \(it takes: device, float_dtype\)",
+    ):
+        ForceMapPolicy.from_pretrained(ckpt)
+    pipeline["steps"][device]["config"] = [1]
+    (ckpt / "policy_preprocessor.json").write_text(json.dumps(pipeline))
+    with pytest.raises(ValueError, match=rf"steps\[{device}\]\.config: expected an object, got list"):
+        ForceMapPolicy.from_pretrained(ckpt)
+
+
 def test_a_non_finite_fps_or_dummy_is_refused(ckpt):
     """fps inf used to load and freeze the arm (clock at inf Hz); a NaN dummy made lerobot-train's loss NaN."""
     fitted_fps = json.loads((ckpt / "config.json").read_text())["fps"]
@@ -344,3 +364,9 @@ def test_a_missing_local_folder_is_named_as_such(tmp_path):
     for name in ("outputs/run 1", "outputs/train/"):
         with pytest.raises(ValueError, match=f"{name}: no such checkpoint folder"):
             ForceMapPolicy.from_pretrained(name)
+    # a mistyped folder shaped like a Hub id (outputs/policy): looked up on the Hub, and said missing here
+    with pytest.raises(
+        ValueError,
+        match=r"outputs/polcy: config\.json is not in the local .* no local folder 'outputs/polcy'",
+    ):
+        ForceMapPolicy.from_pretrained("outputs/polcy")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -50,12 +52,19 @@ def test_several_demonstrations_are_mapped_together_in_the_object_frame():
     b = press_episode(1, obj=(0.53, 0.02, 0.03), depth=0.025)
     skill, report, _ = _fit([a, b], stiffness=1e12)
     assert report.episodes == (0, 1) and len(report.changepoints) == 2
-    # object-relative holds at -15 and -25 mm, at different base positions: one map in the box frame
-    assert -0.0255 < skill.segments[2].nodes[:, 2].min() < -0.0145
-    np.testing.assert_allclose(skill.segments[2].nodes[:, :2], 0.0, atol=1e-9)
-    # in the base frame the two holds are 36 mm apart; in the box frame both lie on its axis
-    one, _, _ = _fit([a], stiffness=1e12)
-    np.testing.assert_allclose(one.segments[2].nodes[:, :2], 0.0, atol=1e-9)
+    # object-relative holds at -15 and -25 mm, at different base positions: one map in the box frame,
+    # on its axis and halfway between the two depths (each demonstration alone gives its own depth)
+    hold = skill.segments[2].nodes
+    np.testing.assert_allclose(hold[:, :2], 0.0, atol=1e-9)
+    assert hold[:, 2].min() == pytest.approx(-0.020, abs=1e-4)
+    for ep, depth in ((a, 0.015), (b, 0.025)):
+        one, _, _ = _fit([ep], stiffness=1e12)
+        assert one.segments[2].nodes[:, 2].min() == pytest.approx(-depth, abs=1e-4)
+    # without anchors (base frame) the two holds, 36 mm apart, spread the map's hold sideways
+    base, report, _ = _fit([a, b], stiffness=1e12, anchor_radius=1e-9)
+    assert report.anchors == ("", "", "", "")
+    xy = base.segments[2].nodes[:, :2]
+    assert np.max(np.linalg.norm(xy - xy[0], axis=1)) > 0.02
 
 
 def test_segment_counts_must_agree():
@@ -64,6 +73,22 @@ def test_segment_counts_must_agree():
     b = type(b)(**{**b.__dict__, "segment_labels": np.minimum(b.segment_labels, 2)})
     with pytest.raises(ValueError, match=r"segment counts differ .*episode 0: 4, episode 1: 3"):
         _fit([a, b])
+
+
+def test_auto_segment_counts_must_agree():
+    """Segmented by the policy itself (segments='auto'): one press gives 3 segments, the same press done
+    twice gives 5; mapping them together is refused by name, not silently aligned."""
+    one = press_episode(0)
+    twice = dataclasses.replace(
+        one,
+        episode=1,
+        times=np.arange(2 * one.n_frames) / 20.0,
+        **{f: np.concatenate([getattr(one, f)] * 2) for f in ("pose", "force", "gripper", "env_state")},
+        segment_labels=None,
+    )
+    assert len(_fit([twice], segments="auto")[0].segments) == 5
+    with pytest.raises(ValueError, match=r"segment counts differ .*episode 0: 3, episode 1: 5"):
+        _fit([one, twice], segments="auto")
 
 
 def test_per_segment_override_changes_that_segment_only():

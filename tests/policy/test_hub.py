@@ -10,6 +10,7 @@ from unittest import mock
 
 import pytest
 import torch
+from huggingface_hub import ModelCard
 
 from lerobot_policy_forcemap.modeling_forcemap import SKILL_TENSORS, ForceMapPolicy
 
@@ -211,6 +212,43 @@ def test_forcemap_push_cli_sends_a_loadable_policy(press_checkpoint, tmp_path, h
     local = ForceMapPolicy.from_pretrained(press_checkpoint)
     for name in SKILL_TENSORS:
         assert torch.equal(getattr(back, name), getattr(local, name)), name
+
+
+@pytest.mark.parametrize(
+    "recorded,flag,expected",
+    [
+        ({}, None, None),
+        ({"fit_report.json": {"dataset_repo_id": "local/press"}}, None, None),  # never on the Hub
+        ({"fit_report.json": {"dataset_repo_id": "someone/press-demos"}}, None, "someone/press-demos"),
+        ({"train_config.json": {"dataset": {"repo_id": "lab/press"}}}, None, "lab/press"),
+        ({"train_config.json": {"dataset": {"repo_id": "lab/press"}}}, "other/press-v2", "other/press-v2"),
+    ],
+)
+def test_the_pushed_card_links_the_dataset_the_policy_was_fitted_from(
+    press_checkpoint, tmp_path, hub, recorded, flag, expected
+):
+    """As lerobot-train's push does (``datasets:`` in the card's metadata): the --dataset-repo-id flag,
+    else the Hub id lerobot-train or ``forcemap fit --repo-id`` recorded next to the checkpoint."""
+    from lerobot_forcemap.cli import main
+
+    ckpt = tmp_path / "ckpt"
+    shutil.copytree(press_checkpoint, ckpt)
+    for name, doc in recorded.items():
+        (ckpt / name).write_text(json.dumps(doc))
+    argv = ["push", "--policy", str(ckpt), "--repo-id", REPO]
+    assert main(argv + (["--dataset-repo-id", flag] if flag else [])) == 0
+    card = ModelCard.load(hub.root / REPO / "README.md")
+    assert card.data.to_dict().get("datasets") == (None if expected is None else expected)
+
+
+def test_a_bad_dataset_repo_id_is_named_before_anything_is_uploaded(press_checkpoint, hub):
+    from lerobot_forcemap.cli import main
+
+    with pytest.raises(ValueError, match="--dataset-repo-id must be 'owner/name', got 'press'"):
+        main(["push", "--policy", str(press_checkpoint), "--repo-id", REPO, "--dataset-repo-id", "press"])
+    with pytest.raises(ValueError, match="--dataset-repo-id applies to policies only"):
+        main(["push", "--dataset", "datasets/press", "--repo-id", REPO, "--dataset-repo-id", "a/b"])
+    hub.api.upload_folder.assert_not_called()
 
 
 def test_a_broken_processor_file_fails_before_anything_is_uploaded(press_checkpoint, tmp_path, hub):

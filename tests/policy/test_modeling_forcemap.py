@@ -92,16 +92,27 @@ def test_save_load_round_trip_is_bit_exact(policy, tmp_path):
 
 
 def test_forward_is_a_diagnostic_loss_without_gradient_effect(policy):
-    batch = _scene(batch=3)
-    batch["action"] = torch.tensor([[0.5, 0.0, 0.04, 0.0, 1.0, 0.0, 0.0, 1.0]] * 3)
+    """The loss is the distance (m) from each sample's target position to the path placed in its scene."""
+    button = np.array([0.5, 0.0, 0.027])
+    seg = next(s for s in policy.skill.segments if s.anchor == "button")  # nodes in the button's frame
+    on_path = button + seg.nodes[len(seg.nodes) // 2]
+    moved = button + [0.03, 0.02, 0.0]
+    batch = _scene(batch=4)
+    batch["observation.environment_state"][2, :3] = torch.tensor(moved)
+    targets = [on_path, on_path + [0.0, 0.0, 1.0], moved - button + on_path, [2.5, 0.0, 0.04]]
+    batch["action"] = torch.tensor([[*t, 0.0, 1.0, 0.0, 0.0, 1.0] for t in targets], dtype=torch.float32)
     policy.train()
+    per_sample, _ = policy.forward(batch, reduction="none")
+    assert per_sample.shape == (4,)
+    assert per_sample[0].item() < 1e-6  # on the path (float32 batch)
+    assert per_sample[1].item() > 0.8  # 1 m above the pressed point, the path rises at most ~0.15 m
+    assert per_sample[2].item() < 1e-6  # the same point carried along with its sample's moved button
+    assert per_sample[3].item() > 1.9  # 2 m beyond the workspace
     loss, info = policy.forward(batch)
-    assert loss.ndim == 0 and torch.isfinite(loss) and 0 <= loss.item() < 0.05
+    assert loss.ndim == 0 and loss.item() == pytest.approx(per_sample.mean().item(), rel=1e-6)
     loss.backward()
     assert policy.closed_form_dummy.grad is not None and policy.closed_form_dummy.grad.abs().sum() == 0
     assert info["map_distance_mm"] == pytest.approx(loss.item() * 1e3, rel=1e-5)
-    per_sample, _ = policy.forward(batch, reduction="none")
-    assert per_sample.shape == (3,)
     policy.eval()
 
 
@@ -262,7 +273,7 @@ def test_multi_episode_auto_segments_must_agree(press_dataset, tmp_path):
     for e in range(4):
         pol = fit_and_save(press_dataset, tmp_path / f"one{e}", episodes=[e])
         counts.append(pol.config.n_segments)
-    if len(set(counts)) == 1:
+    if len(set(counts)) == 1:  # test_fitting's synthetic single/double press covers the law regardless
         pytest.skip(f"the first 4 demonstrations all segment into {counts[0]} segments")
     a, b = next((i, j) for i in range(4) for j in range(4) if counts[i] != counts[j])
     with pytest.raises(ValueError, match="segment counts differ"):

@@ -55,7 +55,7 @@ def test_saved_processors_load_with_lerobot_eval_overrides(press_checkpoint):
         config_filename="policy_preprocessor.json",
         overrides={
             "device_processor": {"device": "cpu"},
-            "rename_observations_processor": {"rename_map": {}},
+            "rename_observations_processor": {"rename_map": {"observation.wrench": "observation.force"}},
         },
         to_transition=batch_to_transition,
         to_output=transition_to_batch,
@@ -66,9 +66,14 @@ def test_saved_processors_load_with_lerobot_eval_overrides(press_checkpoint):
         to_transition=policy_action_to_transition,
         to_output=transition_to_policy_action,
     )
-    out = pre(_obs())
+    # the overrides reached the loaded steps: a robot's "wrench" arrives as the policy's force
+    obs = _obs()
+    obs["observation.wrench"] = obs.pop("observation.force")
+    out = pre(obs)
+    assert "observation.wrench" not in out
     torch.testing.assert_close(
         out["observation.force"].reshape(-1), _obs()["observation.force"], rtol=0, atol=0
     )
+    assert str(pre.steps[2].device) == "cpu"
     action = torch.tensor([[0.5, 0.0, 0.02, 0.0, 1.0, 0.0, 0.0, 1.0]])
     torch.testing.assert_close(post(action), action, rtol=0, atol=0)

@@ -118,7 +118,7 @@ def test_merge_events() -> None:
     np.testing.assert_array_equal(merge_events([100, 150, 200], 64), [150])  # chains
     np.testing.assert_array_equal(merge_events([100, 150], 10), [100, 150])
     assert merge_events([], 64).size == 0
-    with pytest.raises(ValueError, match="within"):
+    with pytest.raises(ValueError, match="within must be a finite number >= 0, got -1"):
         merge_events([1], -1)
 
 

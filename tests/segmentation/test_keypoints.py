@@ -13,7 +13,14 @@ from lerobot_forcemap.segmentation import (
     stream_keypoints,
     threshold_runs,
 )
-from lerobot_forcemap.segmentation.keypoints import difference_third_derivative, savgol_third_derivative
+from lerobot_forcemap.segmentation.keypoints import (
+    FLAT_RELATIVE,
+    difference_third_derivative,
+    jerk_norm,
+    roundoff_jerk,
+    savgol_third_derivative,
+    savgol_third_derivative_kernels,
+)
 from lerobot_forcemap.segmentation.reference import (
     loop_run_starts,
     loop_signal,
@@ -123,3 +130,44 @@ def test_flat_stream_gives_no_keypoints_and_no_nan() -> None:
     assert np.all(still.signal == 0)
     np.testing.assert_allclose(still.pmf, 1 / 500)
     assert np.isfinite(seg.pmf).all()
+
+
+@pytest.mark.parametrize("derivative", ["savgol", "difference"])
+def test_roundoff_jerk_is_the_flat_fraction_of_the_largest_jerk_the_range_allows(derivative: str) -> None:
+    """roundoff_jerk / FLAT_RELATIVE bounds the jerk norm of any stream by its range about the first
+    sample, and the worst case reaches it. The loop reference shares this function, so it is checked
+    here against the derivatives themselves."""
+    window, polyorder, n, v = 21, 4, 200, 0.02
+    t = np.arange(n) * DT
+    if derivative == "difference":  # [0, v, -v, v, ...]: every third difference is 8 v
+        worst = np.where(np.arange(n) % 2 == 1, v, -v)
+        worst[0] = 0.0
+    else:  # the end samples follow the signs of the largest end kernel row
+        right = savgol_third_derivative_kernels(window, polyorder)[2]
+        worst = np.zeros(n)
+        worst[n - window :] = v * np.sign(right[np.abs(right).sum(axis=1).argmax()])
+    rng = np.random.default_rng(3)
+    for k in (1, 3):
+        cases = (
+            np.tile(worst[:, None], k),
+            rng.uniform(-v, v, (n, k)),
+            np.cumsum(rng.normal(0, 1e-3, (n, k)), axis=0),
+        )
+        for i, x in enumerate(cases):
+            bound = roundoff_jerk(x, t, derivative, window, polyorder) / FLAT_RELATIVE
+            jerk = jerk_norm(x, t, derivative, window, polyorder).max()
+            assert jerk <= bound * (1 + 1e-12)
+            if i == 0:
+                assert jerk == pytest.approx(bound, rel=1e-9)
+
+
+def test_an_exactly_linear_ramp_is_flat_not_round_off_keypoints() -> None:
+    t = np.arange(400) * DT
+    ramp = np.linspace(0.0, 0.08, 400)[:, None] * [1.0, -0.5]  # a scripted gripper opening
+    seg = segment_streams(
+        [Stream("ramp", ramp, t), Stream("moving", random_stream_values(np.random.default_rng(1), 400, 2), t)]
+    )
+    assert (
+        0 < jerk_norm(ramp, t, "savgol", 64, 4).max() < roundoff_jerk(ramp, t, "savgol", 64, 4)
+    )  # round-off only
+    assert seg.streams["ramp"].flat and seg.streams["ramp"].keypoints.size == 0
