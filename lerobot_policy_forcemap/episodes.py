@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lerobot_forcemap import layout
+from lerobot_forcemap.data.schema import check_data_columns
 
 from .configuration_forcemap import ForceMapConfig
 
@@ -287,6 +288,7 @@ def load_episodes(
                 f"ForceMapConfig.episodes: episode(s) {missing} not in the dataset {root} "
                 f"(it has episodes 0..{total - 1})"
             )
+        check_data_columns(root)
     ds = LeRobotDataset(repo_id, root=root, episodes=sorted(int(e) for e in config.episodes))
     features = ds.meta.features
     keys = [k for k in needed_columns(config, features) if k in ds.hf_dataset.column_names]

@@ -41,6 +41,7 @@ from lerobot_forcemap.data.staging import check_output, partial_dir, replace_dir
 from lerobot_forcemap.data.transforms import (
     GRIPPER_FULL_SCALE,
     LAB_WRENCH_SIGN,
+    TARE_QUIET_STD_N,
     AlignedRecording,
     align_recording,
 )
@@ -365,7 +366,8 @@ def _with_warning(a: AlignedRecording, msg: str) -> AlignedRecording:
 
 
 _TARE_WINDOW = {
-    "auto": "start window if the sensor is quiet there, force std < 0.5 N, else the end window",
+    "auto": f"start window if the sensor is quiet there, force std < {TARE_QUIET_STD_N:g} N, else the end "
+    "window if quiet, else the quieter of the two",
     "start": "the first 0.2 s",
     "end": "the last 0.2 s",
 }

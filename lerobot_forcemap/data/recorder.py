@@ -207,17 +207,14 @@ RECORDER_LAYOUT: dict[str, frozenset[str]] = {
 NOT_CONVERTED = ("joint_state_info/joint_velocities", "joint_state_info/joint_effort")
 
 
-def _warn_unknown_content(g: h5py.Group, name: str) -> None:
-    """Content outside :data:`RECORDER_LAYOUT` is not converted: say so rather than drop it silently."""
+def _unknown_content(g: h5py.Group) -> list[str]:
+    """Content outside :data:`RECORDER_LAYOUT` (not converted: warned about and listed in
+    ``Recording.not_converted``, so the dataset's sources file and card name it too)."""
     unknown = [key for key in g if key not in RECORDER_LAYOUT]
     for group, known in RECORDER_LAYOUT.items():
         if group in g and isinstance(g[group], h5py.Group):
             unknown += [f"{group}/{key}" for key in g[group] if key not in known]
-    if unknown:
-        warnings.warn(
-            f"recording {name!r}: {sorted(unknown)} not part of the lab-recorder format; not converted",
-            stacklevel=3,
-        )
+    return sorted(unknown)
 
 
 def _read_group(g: h5py.Group, name: str) -> Recording:
@@ -290,9 +287,13 @@ def _read_group(g: h5py.Group, name: str) -> Recording:
         gripper=gripper,
         finger_force_time=ff_time,
         finger_force=ff,
-        not_converted=tuple(p for p in NOT_CONVERTED if p in g),
+        not_converted=tuple(p for p in NOT_CONVERTED if p in g) + tuple(unknown := _unknown_content(g)),
     )
-    _warn_unknown_content(g, name)  # after a successful read: a file of another layout fails with its reason
+    if unknown:  # after a successful read: a file of another layout fails with its reason
+        warnings.warn(
+            f"recording {name!r}: {unknown} not part of the lab-recorder format; not converted",
+            stacklevel=2,
+        )
     return recording
 
 
@@ -351,7 +352,7 @@ def gbti_keys(path: str | Path) -> list[GbtiKey]:
                         raise ValueError(f"{path}: {err}") from None
     if not keys:
         raise ValueError(f"{path}: no /Object/UserN/PositionM groups (not a GBTI file?)")
-    if skipped:  # say so rather than drop it silently, as _warn_unknown_content does for a demo
+    if skipped:  # say so rather than drop it silently, as _read_group does for a demo's unknown content
         warnings.warn(
             f"{path}: {sorted(skipped)} not part of the GBTI layout (/Object/UserN/PositionM groups); "
             "not converted",

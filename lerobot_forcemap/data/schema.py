@@ -36,6 +36,7 @@ __all__ = [
     "write_dataset_card",
     "refresh_dataset_card",
     "require_dataset_root",
+    "check_data_columns",
 ]
 
 FLOAT_DTYPE = "float32"
@@ -376,6 +377,46 @@ def require_dataset_root(root: str | Path, argument: str | None = None) -> Path:
         where = f"{argument} {root}" if argument else str(root)
         raise ValueError(f"{where}: not a LeRobot dataset (no meta/info.json)")
     return root
+
+
+def check_data_columns(root: str | Path) -> None:
+    """The data files hold the columns ``meta/info.json`` lists, with its per-frame sizes, else a
+    ``ValueError`` naming the file and the feature(s). LeRobot would fail inside its parquet reader with a
+    long traceback ("Couldn't cast fixed_size_list[3] to List(float32, 6)") naming neither."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    root = Path(root)
+    features = json.loads((root / "meta" / "info.json").read_text()).get("features") or {}
+    in_data = {k: ft for k, ft in features.items() if ft.get("dtype") != "video"}  # videos live elsewhere
+    for path in sorted((root / "data").glob("*/*.parquet")):
+        where = path
+        try:
+            schema = pq.read_schema(path)
+        except (OSError, pa.ArrowException) as err:
+            raise ValueError(f"{where}: not a readable parquet file ({err})") from None
+        missing = sorted(set(in_data) - set(schema.names))
+        extra = sorted(set(schema.names) - set(in_data))
+        if missing or extra:
+            raise ValueError(
+                f"{where}: columns and meta/info.json features differ: "
+                + "; ".join(
+                    f"{what} {names}"
+                    for what, names in (
+                        ("in meta/info.json but not in the file:", missing),
+                        ("in the file but not in meta/info.json:", extra),
+                    )
+                    if names
+                )
+            )
+        for key, ft in in_data.items():
+            kind = schema.field(key).type
+            shape = tuple(ft.get("shape") or ())
+            if pa.types.is_fixed_size_list(kind) and len(shape) == 1 and kind.list_size != shape[0]:
+                raise ValueError(
+                    f"{where}: feature {key!r} holds {kind.list_size} values per frame, meta/info.json "
+                    f"says shape {list(shape)}"
+                )
 
 
 def write_dataset_card(

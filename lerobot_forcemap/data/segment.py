@@ -14,21 +14,25 @@ Write-back, in place (LeRobot 0.6.1 checked, ``datasets/language.py``, ``feature
   per-episode list broadcast to every frame, with an empty ``language_events`` column beside it —
   the same layout ``lerobot-annotate`` writes. ``LeRobotDataset`` reads both back; the resolver
   ``lerobot.datasets.language_render.active_at(t, persistent=..., style=...)`` gives the active
-  segment at time ``t``. Existing rows of other styles are kept; rows of our style are replaced.
+  segment at time ``t``. Rows of ``style`` are replaced; rows of other styles are kept, so two
+  segmentations can live side by side as two styles (``segment_index`` holds the last one written).
 
 ``meta/info.json`` gains the three features, ``meta/stats.json`` and the episodes' stats gain
 ``segment_index``. ``subtasks=False`` (``--no-subtasks``) writes ``segment_index`` only and leaves any
-language columns as they are: LeRobot 0.6.1's ``lerobot-dataset-viz`` batches frames with PyTorch's
+language columns as they are. Either way, an earlier run's "segment k of K" rows that are kept but no
+longer match the new ``segment_index`` are named in a warning. LeRobot 0.6.1's ``lerobot-dataset-viz`` batches frames with PyTorch's
 default collate, which stops at the ``None`` fields every language row has (``camera``, ``tool_calls``;
 ``lerobot-annotate``'s rows too), so it cannot open a dataset with subtasks (``forcemap viz`` can).
-Episodes not segmented in this call keep their labels (or get one segment, 0, when the column is new).
-The parquet shards are rewritten to a temporary file and renamed.
+Episodes not segmented in this call keep their labels (or get one segment, 0, when the column is new:
+said in a warning). Every episode's labels are checked against the data files before anything is
+written; the parquet shards are then all written to temporary files and renamed together.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import re
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -39,7 +43,12 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from lerobot_forcemap import layout
-from lerobot_forcemap.data.schema import SEGMENT_INDEX_FEATURE, refresh_dataset_card, require_dataset_root
+from lerobot_forcemap.data.schema import (
+    SEGMENT_INDEX_FEATURE,
+    check_data_columns,
+    refresh_dataset_card,
+    require_dataset_root,
+)
 from lerobot_forcemap.segmentation import (
     AUTHORS_WINDOW_S,
     SegmentationConfig,
@@ -74,6 +83,7 @@ STREAM_THRESHOLDS: dict[str, float] = {
 }
 SUBTASK_STYLES = ("motion", "subtask")
 _ROLE = "assistant"
+_OUR_CONTENT = re.compile(r"segment \d+ of \d+")
 
 
 @dataclass(frozen=True)
@@ -153,7 +163,36 @@ def _data_files(root: Path) -> list[Path]:
 def _load(root: Path, repo_id: str):
     from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lazy: heavy import
 
+    check_data_columns(
+        root
+    )  # a data file that disagrees with meta/info.json, named before LeRobot's traceback
     return LeRobotDataset(repo_id, root=root)
+
+
+def _check_stream_settings(
+    available: Sequence[str], weights: Mapping[str, float] | None, thresholds: Mapping[str, float] | None
+) -> None:
+    """Stream names and values of ``--weights`` / ``--thresholds``, checked once (a bad value is the
+    flag's fault, not the first episode's)."""
+    for flag, given in (("--weights", weights), ("--thresholds", thresholds)):
+        unknown = sorted(set(given or {}) - set(available))
+        if unknown:
+            raise ValueError(f"{flag}: unknown stream(s) {unknown}; this dataset has {sorted(available)}")
+    for name in available:
+        try:  # Stream's own checks (weight finite >= 0 and not huge, threshold in (0, 1])
+            Stream(
+                name,
+                np.zeros(2),
+                np.arange(2.0),
+                weight=(weights or {}).get(name, 1.0),
+                threshold=(thresholds or {}).get(name, STREAM_THRESHOLDS[name]),
+            )
+        except ValueError as err:
+            raise ValueError(f"--weights/--thresholds: {err}") from None
+    if not any((weights or {}).get(name, 1.0) > 0 for name in available):
+        raise ValueError(
+            f"--weights: every stream has weight 0 ({sorted(available)}); one needs a weight > 0"
+        )
 
 
 def segment_dataset(
@@ -182,12 +221,7 @@ def segment_dataset(
         raise ValueError(
             f"{root}: no feature to segment on (need {layout.OBS_STATE}, {layout.OBS_FORCE}, ...)"
         )
-    # checked once here, not as every episode's error: a misspelt name is the flag's fault
-    available = sorted(stream_columns(features))
-    for flag, given in (("--weights", weights), ("--thresholds", thresholds)):
-        unknown = sorted(set(given or {}) - set(available))
-        if unknown:
-            raise ValueError(f"{flag}: unknown stream(s) {unknown}; this dataset has {available}")
+    _check_stream_settings(list(stream_columns(features)), weights, thresholds)
     if not {layout.OBS_FORCE, layout.OBS_FINGER_FORCE} & set(features):
         warnings.warn(
             f"{root}: no force feature ({layout.OBS_FORCE} or {layout.OBS_FINGER_FORCE}); segmenting on "
@@ -211,10 +245,14 @@ def segment_dataset(
         rows = np.flatnonzero(ep_col == e)
         cols = {key: data[key][rows] for key in keys}
         try:
-            streams = episode_streams(cols, ts[rows], features, weights=weights, thresholds=thresholds)
-            result = segment_streams(streams, config)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                streams = episode_streams(cols, ts[rows], features, weights=weights, thresholds=thresholds)
+                result = segment_streams(streams, config)
         except ValueError as err:
             raise ValueError(f"episode {e}: {err}") from err
+        for w in caught:  # e.g. repeated timestamps: which of 60 episodes is it?
+            warnings.warn(f"episode {e}: {w.message}", w.category, stacklevel=2)
         out.append(
             EpisodeSegments(e, np.asarray(result.changepoints, dtype=np.int64), result.labels(), result)
         )
@@ -265,8 +303,32 @@ def write_segments(
                 f"episode {e}, frame {i}: segment labels must start at 0 and step by 1, got {lab[i]}"
             )
 
-    seen: set[int] = set()
-    for path in _data_files(root):
+    # every episode checked against the data files before any file is written: a bad one leaves the
+    # dataset as it was (LeRobot cannot open a data file whose columns info.json does not list)
+    files = _data_files(root)
+    frames: dict[int, int] = {}
+    has_column = True
+    for path in files:
+        ep = pq.read_table(path, columns=["episode_index"]).column("episode_index").to_numpy()
+        for e, n in zip(*np.unique(ep, return_counts=True), strict=True):
+            frames[int(e)] = frames.get(int(e), 0) + int(n)
+        has_column &= layout.SEGMENT_INDEX in pq.read_schema(path).names
+    missing = sorted(set(labels_by_ep) - set(frames))
+    if missing:
+        raise ValueError(f"{root}: episode(s) {missing} not found in the data files")
+    for e, lab in labels_by_ep.items():
+        if len(lab) != frames[e]:
+            raise ValueError(f"episode {e}: {len(lab)} labels for {frames[e]} frames")
+    if not has_column and set(frames) - set(labels_by_ep):
+        warnings.warn(
+            f"{root}: {layout.SEGMENT_INDEX} is new; episode(s) {sorted(set(frames) - set(labels_by_ep))}, "
+            "not segmented in this call, get one segment (0)",
+            stacklevel=2,
+        )
+
+    staged: list[tuple[Path, Path]] = []
+    stale: set[int] = set()  # episodes keeping an earlier run's rows that the new labels contradict
+    for path in files:
         table = pq.read_table(path)
         ep = table.column("episode_index").to_numpy()
         frame = table.column("frame_index").to_numpy()
@@ -274,26 +336,29 @@ def write_segments(
             seg_col = table.column(layout.SEGMENT_INDEX).to_numpy().astype(np.int64)
         else:
             seg_col = np.zeros(len(ep), dtype=np.int64)
-        if LANGUAGE_PERSISTENT in table.column_names:
+        has_language = LANGUAGE_PERSISTENT in table.column_names
+        if has_language:
             persistent = table.column(LANGUAGE_PERSISTENT).to_pylist()
         else:
             persistent = [[] for _ in range(len(ep))]
         episode_rows: dict[int, list[dict]] = {}
         for e in np.unique(ep):
             e = int(e)
-            rows = np.flatnonzero(ep == e)
             if e not in labels_by_ep:
                 continue
+            rows = np.flatnonzero(ep == e)
             lab = labels_by_ep[e]
-            if len(lab) != len(rows):
-                raise ValueError(f"episode {e}: {len(lab)} labels for {len(rows)} frames")
             seg_col[rows] = lab[frame[rows]]
-            seen.add(e)
+            if not (subtasks or has_language):
+                continue
+            old = persistent[rows[0]] or []
+            kept = [r for r in old if not (subtasks and r.get("style") == style)]
+            if _disagree(kept, lab, fps):
+                stale.add(e)
             if not subtasks:
                 continue
-            starts = np.flatnonzero(np.concatenate([[True], np.diff(lab) != 0]))
+            starts = _starts(lab)
             n_seg = len(starts)
-            kept = [r for r in (persistent[rows[0]] or []) if r.get("style") != style]
             ours = [
                 {
                     "role": _ROLE,
@@ -323,10 +388,16 @@ def write_segments(
         new_table = pa.Table.from_arrays(columns, names=[*keep, layout.SEGMENT_INDEX, *language])
         tmp = path.with_suffix(path.suffix + ".tmp")
         write_table_one_row_group_per_episode(new_table, tmp)
+        staged.append((tmp, path))
+    for tmp, path in staged:
         tmp.replace(path)
-    missing = sorted(set(labels_by_ep) - seen)
-    if missing:
-        raise ValueError(f"{root}: episode(s) {missing} not found in the data files")
+    if stale:
+        warnings.warn(
+            f"{root}: episode(s) {sorted(stale)} keep subtask rows of an earlier `forcemap segment` (other "
+            f"style, or --no-subtasks) that no longer match the new {layout.SEGMENT_INDEX}; rerun with that "
+            "--style to update them",
+            stacklevel=2,
+        )
 
     info.features = {
         **info.features,
@@ -336,6 +407,22 @@ def write_segments(
     write_info(info, root)
     _write_segment_stats(root)
     refresh_dataset_card(root)  # the card's feature table gains segment_index and the language columns
+
+
+def _starts(labels: np.ndarray) -> np.ndarray:
+    """First frame of each segment of per-frame labels."""
+    return np.flatnonzero(np.concatenate([[True], np.diff(labels) != 0]))
+
+
+def _disagree(rows: Sequence[Mapping[str, Any]], labels: np.ndarray, fps: int) -> bool:
+    """Whether the "segment k of K" rows of some style, written by an earlier ``forcemap segment``,
+    start segments at other times than ``labels`` do (rows of other writers are not judged)."""
+    starts = [float(np.float32(f / fps)) for f in _starts(labels)]
+    for style in SUBTASK_STYLES:
+        ours = [r for r in rows if r.get("style") == style and _OUR_CONTENT.fullmatch(str(r.get("content")))]
+        if ours and sorted(float(r["timestamp"]) for r in ours) != starts:
+            return True
+    return False
 
 
 def _event_row_type():
@@ -528,7 +615,18 @@ def run(args: argparse.Namespace) -> int:
             f"episode {s.episode_index}: {s.n_segments} segment(s), changepoints {s.changepoints.tolist()}"
             + (f"; --min-segment-length dropped {dropped}" if dropped else "")
         )
-    single = [s for s in segs if s.n_segments == 1]
+
+    def all_dropped(s: EpisodeSegments) -> bool:
+        return s.result is not None and s.result.rejected.size > 0
+
+    single = [s for s in segs if s.n_segments == 1 and not all_dropped(s)]
+    cut = [s for s in segs if s.n_segments == 1 and all_dropped(s)]
+    if cut:
+        shortest = config.min_segment_length or config.window // 2
+        print(
+            f"note: {len(cut)} of {len(segs)} episode(s) found changepoints but --min-segment-length "
+            f"{shortest} (frames) dropped them all: lower it to keep them"
+        )
     if single:
         # --window/--min-run count frames: the authors' 64 are 0.39 s at their ~166 Hz recorder
         fps = float(json.loads((Path(args.dataset) / "meta" / "info.json").read_text())["fps"])

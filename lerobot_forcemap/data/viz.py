@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from lerobot_forcemap import layout
-from lerobot_forcemap.data.schema import numeric_feature_keys, require_dataset_root
+from lerobot_forcemap.data.schema import check_data_columns, numeric_feature_keys, require_dataset_root
 from lerobot_forcemap.data.segment import SUBTASK_STYLES, read_subtasks
 
 __all__ = ["ENTITY_NAMES", "log_episode", "visualize_episode", "add_arguments", "run"]
@@ -105,6 +105,7 @@ def visualize_episode(
     from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lazy: heavy import
 
     root = require_dataset_root(root, "--dataset")
+    check_data_columns(root)
     if save is not None and Path(save).is_dir():
         raise ValueError(
             f"--save {save}: is a folder; give a file name such as {Path(save) / f'episode_{episode}.rrd'}"

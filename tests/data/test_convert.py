@@ -318,7 +318,19 @@ def test_recorder_content_problems_are_named(tmp_path):
         UserWarning,
         match=r"\['camera_info', 'joint_state_info/joint_accelerations'\] not part of the lab-recorder format",
     ):
-        read_recording(good)
+        rec = read_recording(good)
+    # ... and listed with what the format itself leaves out, so the sources file and the card name it too
+    assert {"camera_info", "joint_state_info/joint_accelerations"} <= set(rec.not_converted)
+    other = write_recorder_file(tmp_path / "other.h5", make_streams(n=100))
+    with h5py.File(other, "a") as f:
+        f.create_group("camera_info").create_dataset("frames", data=np.zeros(3))
+        f["joint_state_info"].create_dataset("joint_accelerations", data=np.zeros(3))
+    with pytest.warns(UserWarning, match="not part of the lab-recorder format"):
+        convert_recordings([other], tmp_path / "o1", fps=20, progress=False)
+    card = (tmp_path / "o1" / "README.md").read_text()
+    sources = json.loads((tmp_path / "o1" / "meta" / "forcemap_sources.json").read_text())
+    assert "`camera_info`" in card and "`joint_state_info/joint_accelerations`" in card
+    assert "camera_info" in json.dumps(sources)
     with pytest.raises(ValueError, match="--gripper-full-scale must be a positive number, got nan"):
         convert_recordings([good], tmp_path / "o2", fps=20, progress=False, gripper_full_scale=float("nan"))
 

@@ -6,6 +6,8 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 
 from lerobot_forcemap import layout
@@ -92,7 +94,11 @@ def test_styles_coexist_and_rerun_replaces(dataset):
     write_segments(
         dataset, {0: np.r_[np.zeros(100, int), np.ones(50, int)], 1: np.zeros(170, int)}, style="motion"
     )
-    write_segments(dataset, {0: np.r_[np.zeros(30, int), np.ones(120, int)]}, style="subtask")
+    # the motion rows are kept beside the new subtask rows, and said to disagree with segment_index now
+    with pytest.warns(
+        UserWarning, match=r"episode\(s\) \[0\] keep subtask rows of an earlier .* no longer match"
+    ):
+        write_segments(dataset, {0: np.r_[np.zeros(30, int), np.ones(120, int)]}, style="subtask")
     ds = load(dataset)
     assert [r["timestamp"] for r in read_subtasks(ds, 0, style="motion")] == [0.0, 2.0]
     assert [r["timestamp"] for r in read_subtasks(ds, 0, style="subtask")] == [0.0, pytest.approx(0.6)]
@@ -103,7 +109,11 @@ def test_styles_coexist_and_rerun_replaces(dataset):
 
 
 def test_subset_of_episodes_and_new_column(dataset):
-    segs = segment_dataset(dataset, episodes=[1], config=CONFIG, progress=False)
+    with pytest.warns(
+        UserWarning,
+        match=r"segment_index is new; episode\(s\) \[0\], not segmented in this call, get one segment",
+    ):
+        segs = segment_dataset(dataset, episodes=[1], config=CONFIG, progress=False)
     ds = load(dataset)
     idx = read_segment_index(ds)
     np.testing.assert_array_equal(idx[0], [0, 150])  # not segmented: one segment
@@ -117,7 +127,22 @@ def test_bad_input(dataset):
     ):
         write_segments(dataset, {0: np.r_[np.zeros(40, int), np.full(110, 2)]})
     with pytest.raises(ValueError, match=r"episode 1: 10 labels for 170 frames"):
-        write_segments(dataset, {1: np.zeros(10, int)})
+        write_segments(dataset, {0: np.zeros(150, int), 1: np.zeros(10, int)})
+    with pytest.raises(ValueError, match=r"episode\(s\) \[9\] not found in the data files"):
+        write_segments(dataset, {0: np.zeros(150, int), 9: np.zeros(5, int)})
+    # checked before anything was written: the data files are as converted, and LeRobot still opens them
+    assert layout.SEGMENT_INDEX not in load(dataset).meta.features
+    assert layout.SEGMENT_INDEX not in pq.read_schema(next((dataset / "data").glob("*/*.parquet"))).names
+    for flag, value, message in (
+        ("--weights", "wrist_force=nan", "stream 'wrist_force': weight must be finite and >= 0, got nan"),
+        ("--weights", "wrist_force=-1", "stream 'wrist_force': weight must be finite and >= 0, got -1.0"),
+        ("--thresholds", "wrist_force=1.5", r"stream 'wrist_force': threshold is a fraction .* got 1.5"),
+    ):  # a bad value is the flag's fault, not episode 0's
+        with pytest.raises(ValueError, match=rf"^--weights/--thresholds: {message}"):
+            forcemap_main(["segment", "--dataset", str(dataset), flag, value])
+    zero = [f"{n}=0" for n in ("joints", "position", "wrist_force", "gripper")]
+    with pytest.raises(ValueError, match=r"^--weights: every stream has weight 0"):
+        forcemap_main(["segment", "--dataset", str(dataset), "--weights", *zero])
     with pytest.raises(ValueError, match=r"^--weights: unknown stream\(s\) \['force'\]"):
         segment_dataset(dataset, weights={"force": 1.0}, config=CONFIG, progress=False)
     with pytest.raises(ValueError, match=r"episode\(s\) \[7\] not in the dataset"):
@@ -205,11 +230,13 @@ def test_no_subtasks_writes_segment_index_only_and_default_collate_batches_it(da
         next(iter(torch.utils.data.DataLoader(load(dataset), batch_size=8)))
     rows_before = read_subtasks(load(dataset), 0)
     # --no-subtasks on a dataset that has them: segment_index rewritten, the language rows left as they are
-    coarse = segment_dataset(
-        dataset, config=SegmentationConfig(window=40, min_run=40), subtasks=False, progress=False
-    )
+    with pytest.warns(UserWarning) as record:
+        coarse = segment_dataset(
+            dataset, config=SegmentationConfig(window=40, min_run=40), subtasks=False, progress=False
+        )
     ds = load(dataset)
     assert LANGUAGE_PERSISTENT in ds.meta.features and read_subtasks(ds, 0) == rows_before
+    assert any("keep subtask rows of an earlier `forcemap segment`" in str(w.message) for w in record)
     for s in coarse:
         np.testing.assert_array_equal(read_segment_index(ds)[s.episode_index], s.changepoints)
 
@@ -237,6 +264,14 @@ def test_changepoints_dropped_by_min_segment_length_are_printed(dataset, capsys)
     assert "1 segment(s)" not in found and "dropped" not in found
     cut = [c.strip() for c in found.split("changepoints [0, ")[1].split(",")[:-1]]
     line = episode_0(["--min-segment-length", "10000"])
+    assert forcemap_main(args + ["--min-segment-length", "10000"]) == 0
+    note = capsys.readouterr().out
+    # not "found no changepoint" with advice to use the window already in use
+    assert "found no changepoint" not in note
+    assert (
+        "2 of 2 episode(s) found changepoints but --min-segment-length 10000 (frames) dropped them all"
+        in note
+    )
     assert line.endswith(
         f"1 segment(s), changepoints [0, 150]; --min-segment-length dropped [{', '.join(cut)}]"
     )
@@ -271,6 +306,39 @@ def test_a_dataset_without_force_is_segmented_with_a_warning(tmp_path):
         UserWarning, match=r"no force feature \(observation.force or observation.finger_force\)"
     ):
         segment_dataset(tmp_path / "ds", config=CONFIG, write=False, progress=False)
+
+
+def test_a_data_file_that_disagrees_with_info_json_is_named(dataset):
+    """Not LeRobot's 100-line parquet-cast traceback that names neither file nor feature."""
+    info = json.loads((dataset / "meta" / "info.json").read_text())
+    (dataset / "meta" / "info.json").write_text(
+        json.dumps({**info, "features": {k: v for k, v in info["features"].items() if k != layout.OBS_FORCE}})
+    )
+    with pytest.raises(
+        ValueError,
+        match=r"file-000\.parquet: columns and meta/info.json features differ: in the file but not in "
+        r"meta/info.json: \['observation.force'\]",
+    ):
+        segment_dataset(dataset, config=CONFIG, progress=False)
+    info["features"][layout.OBS_FORCE]["shape"] = [3]
+    (dataset / "meta" / "info.json").write_text(json.dumps(info))
+    with pytest.raises(
+        ValueError,
+        match=r"feature 'observation.force' holds 6 values per frame, meta/info.json says shape \[3\]",
+    ):
+        segment_dataset(dataset, config=CONFIG, progress=False)
+
+
+def test_a_warning_names_its_episode(dataset):
+    """A repeated timestamp in one of many episodes: the warning says which episode."""
+    path = next((dataset / "data").glob("*/*.parquet"))
+    table = pq.read_table(path)
+    ts = table.column("timestamp").to_numpy().copy()
+    first_of_1 = int(np.flatnonzero(table.column("episode_index").to_numpy() == 1)[0])
+    ts[first_of_1 + 10] = ts[first_of_1 + 9]
+    pq.write_table(table.set_column(table.column_names.index("timestamp"), "timestamp", pa.array(ts)), path)
+    with pytest.warns(UserWarning, match=r"^episode 1: stream 'wrist_force': 1 samples repeat .*\(first at frame 10\)"):
+        segment_dataset(dataset, config=CONFIG, write=False, progress=False)
 
 
 def test_flag_mistakes_are_named_once_as_the_flags(dataset):

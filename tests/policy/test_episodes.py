@@ -117,3 +117,21 @@ def test_finger_force_points_towards_open():
     f3 = np.array([[3.0, 0.0, 0.0, 0.0, 4.0, 3.0]])
     assert finger_force_scalar(f3, ["f0x", "f0y", "f0z", "f1x", "f1y", "f1z"])[0] == pytest.approx(-4.0)
     assert finger_force_scalar(np.array([[2.0, -6.0]]), ["f0", "f1"])[0] == pytest.approx(-4.0)
+
+
+def test_a_data_file_that_disagrees_with_info_json_is_named_before_loading(press_dataset, tmp_path):
+    """forcemap fit reads the episodes itself: a hand-edited info.json is named, not a parquet-cast traceback."""
+    import json
+    import shutil
+
+    from lerobot_policy_forcemap.episodes import load_episodes
+
+    root = tmp_path / "press"
+    shutil.copytree(press_dataset, root)
+    info = json.loads((root / "meta" / "info.json").read_text())
+    info["features"]["observation.force"]["shape"] = [3]
+    (root / "meta" / "info.json").write_text(json.dumps(info))
+    with pytest.raises(
+        ValueError, match=r"feature 'observation.force' holds 6 values per frame, .* shape \[3\]"
+    ):
+        load_episodes("local/press", str(root), ForceMapConfig(device="cpu"))
