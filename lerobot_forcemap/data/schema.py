@@ -390,16 +390,15 @@ def check_data_columns(root: str | Path) -> None:
     features = json.loads((root / "meta" / "info.json").read_text()).get("features") or {}
     in_data = {k: ft for k, ft in features.items() if ft.get("dtype") != "video"}  # videos live elsewhere
     for path in sorted((root / "data").glob("*/*.parquet")):
-        where = path
         try:
             schema = pq.read_schema(path)
         except (OSError, pa.ArrowException) as err:
-            raise ValueError(f"{where}: not a readable parquet file ({err})") from None
+            raise ValueError(f"{path}: not a readable parquet file ({err})") from None
         missing = sorted(set(in_data) - set(schema.names))
         extra = sorted(set(schema.names) - set(in_data))
         if missing or extra:
             raise ValueError(
-                f"{where}: columns and meta/info.json features differ: "
+                f"{path}: columns and meta/info.json features differ: "
                 + "; ".join(
                     f"{what} {names}"
                     for what, names in (
@@ -414,7 +413,7 @@ def check_data_columns(root: str | Path) -> None:
             shape = tuple(ft.get("shape") or ())
             if pa.types.is_fixed_size_list(kind) and len(shape) == 1 and kind.list_size != shape[0]:
                 raise ValueError(
-                    f"{where}: feature {key!r} holds {kind.list_size} values per frame, meta/info.json "
+                    f"{path}: feature {key!r} holds {kind.list_size} values per frame, meta/info.json "
                     f"says shape {list(shape)}"
                 )
 

@@ -19,10 +19,11 @@ Write-back, in place (LeRobot 0.6.1 checked, ``datasets/language.py``, ``feature
 
 ``meta/info.json`` gains the three features, ``meta/stats.json`` and the episodes' stats gain
 ``segment_index``. ``subtasks=False`` (``--no-subtasks``) writes ``segment_index`` only and leaves any
-language columns as they are. Either way, an earlier run's "segment k of K" rows that are kept but no
-longer match the new ``segment_index`` are named in a warning. LeRobot 0.6.1's ``lerobot-dataset-viz`` batches frames with PyTorch's
+language columns as they are: LeRobot 0.6.1's ``lerobot-dataset-viz`` batches frames with PyTorch's
 default collate, which stops at the ``None`` fields every language row has (``camera``, ``tool_calls``;
 ``lerobot-annotate``'s rows too), so it cannot open a dataset with subtasks (``forcemap viz`` can).
+Either way, an earlier run's "segment k of K" rows that are kept but no longer match the new
+``segment_index`` are named in a warning.
 Episodes not segmented in this call keep their labels (or get one segment, 0, when the column is new:
 said in a warning). Every episode's labels are checked against the data files before anything is
 written; the parquet shards are then all written to temporary files and renamed together.
@@ -163,9 +164,8 @@ def _data_files(root: Path) -> list[Path]:
 def _load(root: Path, repo_id: str):
     from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lazy: heavy import
 
-    check_data_columns(
-        root
-    )  # a data file that disagrees with meta/info.json, named before LeRobot's traceback
+    # a data file that disagrees with meta/info.json: named here, before LeRobot's parquet traceback
+    check_data_columns(root)
     return LeRobotDataset(repo_id, root=root)
 
 
