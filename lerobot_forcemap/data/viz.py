@@ -19,6 +19,10 @@ frames are decoded one by one, as LeRobot does. Needs ``rerun-sdk`` (the ``viz``
 from __future__ import annotations
 
 import argparse
+import os
+import shutil
+import sys
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -68,6 +72,13 @@ def log_episode(dataset: Any, episode: int, recording: Any) -> dict[str, int]:
     logged: dict[str, int] = {}
     for key in numeric_feature_keys(dataset.meta.features):
         values = np.asarray(table[key], dtype=np.float64).reshape(len(frames), -1)
+        bad = ~np.isfinite(values).all(axis=1)
+        if bad.any():  # logged as they are (gaps in the plot), but said: fit would refuse this episode
+            warnings.warn(
+                f"episode {episode}: {key} is not finite in {int(bad.sum())} frame(s), first at frame "
+                f"{int(frames[bad.argmax()])} (drawn as gaps)",
+                stacklevel=2,
+            )
         entity = ENTITY_NAMES.get(key, key)
         if values.shape[1] > 1 or dataset.features[key].get("names"):
             recording.log(entity, rr.SeriesLines(names=get_feature_names(dataset, key)), static=True)
@@ -110,6 +121,10 @@ def visualize_episode(
         raise ValueError(
             f"--save {save}: is a folder; give a file name such as {Path(save) / f'episode_{episode}.rrd'}"
         )
+    if save is not None and Path(save).suffix != ".rrd":  # and no other kind of file is overwritten
+        raise ValueError(f"--save {save}: a Rerun recording file ends in .rrd")
+    if save is None:
+        _put_viewer_on_path()
     rr = _import_rerun()
     dataset = LeRobotDataset(repo_id or f"local/{root.name}", root=root)
     _episode_rows(dataset, episode)  # a bad episode fails before a viewer or file is opened
@@ -123,6 +138,25 @@ def visualize_episode(
     logged = log_episode(dataset, episode, recording)
     recording.flush()
     return save, logged
+
+
+def viewer_command() -> str | None:
+    """The Rerun viewer to run: ``rerun`` on PATH, else the one installed beside this Python (a venv
+    used without activating it), else None."""
+    beside = Path(sys.executable).parent / "rerun"
+    return shutil.which("rerun") or (str(beside) if beside.is_file() else None)
+
+
+def _put_viewer_on_path() -> None:
+    """``RecordingStream.spawn`` looks for ``rerun`` on PATH only: add the venv's, or say none is there."""
+    viewer = viewer_command()
+    if viewer is None:
+        raise ValueError(
+            "no Rerun viewer found (`rerun` is not on PATH nor beside this Python): write a file with "
+            "--save episode.rrd, or install the viz extra (pip install rerun-sdk)"
+        )
+    if shutil.which("rerun") is None:
+        os.environ["PATH"] = f"{Path(viewer).parent}{os.pathsep}{os.environ.get('PATH', '')}"
 
 
 # ---- CLI ------------------------------------------------------------------------------------------------
@@ -141,5 +175,5 @@ def run(args: argparse.Namespace) -> int:
     path, logged = visualize_episode(args.dataset, args.episode, save=args.save, repo_id=args.repo_id)
     print(f"episode {args.episode}: " + ", ".join(f"{k} ({n})" for k, n in logged.items()))
     if path is not None:
-        print(f"wrote {path} (open with: rerun {path})")
+        print(f"wrote {path} (open with: {viewer_command() or 'rerun'} {path})")
     return 0

@@ -130,6 +130,10 @@ def load_policy(path: str | Path, device: str = "cpu"):
         )
     import torch
 
+    try:
+        torch.device(device)
+    except (RuntimeError, TypeError) as err:
+        raise ValueError(f"--device {device}: not a torch device (e.g. cpu, cuda, cuda:1, mps)") from err
     if device.startswith("cuda") and not torch.cuda.is_available():
         raise ValueError(f"--device {device}: no CUDA device on this machine (use --device cpu)")
     try:
@@ -357,14 +361,17 @@ def write_video(frames: Sequence[np.ndarray], path: Path, fps: float) -> Path:
 # ---- demonstrations -------------------------------------------------------------------------------------
 
 
-def demonstration_records(dataset: str | Path, *, trace: bool = False) -> tuple[list[dict[str, Any]], str]:
+def demonstration_records(
+    dataset: str | Path, *, trace: bool = False, task: str | None = None
+) -> tuple[list[dict[str, Any]], str]:
     """Per-episode force figures of the demonstrations in a dataset; returns (records, source).
 
     Source ``meta/forcemap_episodes.json`` (written by ``forcemap record``: the env's own statistics,
     comparable to eval records), else the dataset's ``contact_force`` column, else the wrist force
     ``observation.force`` (both at the dataset's frame rate, so maxima may read lower). ``trace``
     adds per-frame rows ``t, fx, fy, fz, x, y, z, target_x, target_y, target_z`` and the episode's
-    first environment state.
+    first environment state. ``task``: the evaluated task; demonstrations ``forcemap record`` wrote for
+    another task are refused (a press policy compared with erase demonstrations says nothing).
     """
     from lerobot_forcemap import layout
 
@@ -373,14 +380,21 @@ def demonstration_records(dataset: str | Path, *, trace: bool = False) -> tuple[
     records: list[dict[str, Any]] = []
     source = ""
     if meta_file.is_file():
-        data = json.loads(meta_file.read_text())
+        data = read_json_object(meta_file)
+        if task is not None and data.get("task") not in (None, task):
+            raise ValueError(
+                f"--dataset {root}: demonstrations of task {data['task']!r} ({meta_file.name}), not of the "
+                f"evaluated task {task!r}"
+            )
         for i, ep in enumerate(data.get("episodes", [])):
+            _check_force_figures(ep, f"{meta_file}: episodes[{i}]")
             records.append(
                 {
                     "episode": i,
                     "seed": ep.get("seed"),
                     "success": bool(ep.get("is_success", True)),
                     "protective_stop": bool(ep.get("protective_stop", False)),
+                    **({"object": ep["object"]} if "object" in ep else {}),
                     **{k: ep[k] for k in FORCE_KEYS if k in ep},
                 }
             )
@@ -421,6 +435,25 @@ def demonstration_records(dataset: str | Path, *, trace: bool = False) -> tuple[
                     "force_source": force_key,
                 }
     return records, source
+
+
+def _check_force_figures(record: Any, where: str) -> None:
+    """The force figures of one record are finite numbers (3 per ``_xyz`` key); ``ValueError`` naming
+    ``where`` and the key otherwise (a NaN would print as "+nan%" and write non-standard JSON)."""
+    if not isinstance(record, dict):
+        raise ValueError(f"{where}: expected an object, got {type(record).__name__}")
+    for key in FORCE_KEYS:
+        if key not in record:
+            continue
+        value = np.asarray(record[key], dtype=object)
+        shape = (3,) if key.endswith("_xyz") else ()
+        ok = value.shape == shape and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in value.flat
+        )
+        if not ok:
+            raise ValueError(
+                f"{where}.{key}: {record[key]!r} is not {'3 finite numbers' if shape else 'a finite number'}"
+            )
 
 
 def _read_table(root: Path) -> tuple[dict[str, np.ndarray], list[str]]:
@@ -501,8 +534,10 @@ def evaluation_document(
     *,
     demo_trace: bool = False,
     object_name: str | None = None,
+    demonstrations: tuple[list[dict[str, Any]], str] | None = None,
 ) -> dict[str, Any]:
-    """The eval JSON document (module docstring)."""
+    """The eval JSON document (module docstring). ``demonstrations``: ``demonstration_records(dataset)``
+    if already read (``forcemap eval`` reads them before the rollouts, so a bad dataset fails first)."""
     doc: dict[str, Any] = {
         "task": task,
         **({"object": object_name} if object_name is not None else {}),
@@ -513,7 +548,7 @@ def evaluation_document(
     }
     fitted = _fitted_episodes(policy_path)
     if dataset is not None:
-        demos, source = demonstration_records(dataset, trace=demo_trace)
+        demos, source = demonstrations or demonstration_records(dataset, trace=demo_trace, task=task)
         used = [d for d in demos if d["episode"] in fitted] if fitted else []
         doc["demonstrations"] = {
             "dataset": str(dataset),
@@ -611,6 +646,12 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.json)
     if out.is_dir():  # found before the rollouts, not after
         raise ValueError(f"--json {out}: is a folder; give the path of the JSON file to write")
+    for flag, given, folder in (("--json", out, out.parent), ("--video-dir", args.video_dir, args.video_dir)):
+        if folder is None:
+            continue
+        blocked = next((p for p in (Path(folder), *Path(folder).parents) if p.exists()), None)
+        if blocked is not None and not blocked.is_dir():
+            raise ValueError(f"{flag} {given}: {blocked} is a file, not a folder")
     if args.videos is not None and (args.video_dir is None or args.videos < 0):
         raise ValueError(
             f"--videos {args.videos}: "
@@ -620,6 +661,10 @@ def run(args: argparse.Namespace) -> int:
         from lerobot_forcemap.data.schema import require_dataset_root
 
         require_dataset_root(args.dataset, "--dataset")
+    dataset = args.dataset or _default_dataset(Path(args.policy))
+    demonstrations = (
+        demonstration_records(dataset, trace=args.trace, task=args.task) if dataset is not None else None
+    )
     records = evaluate_policy(
         args.policy,
         args.task,
@@ -632,15 +677,21 @@ def run(args: argparse.Namespace) -> int:
         env_state_extras=getattr(args, "env_state_extras", None),
         object_name=getattr(args, "object", None),
     )
-    dataset = args.dataset or _default_dataset(Path(args.policy))
     doc = evaluation_document(
-        args.policy, args.task, args.seed, records, dataset, demo_trace=args.trace, object_name=args.object
+        args.policy,
+        args.task,
+        args.seed,
+        records,
+        dataset,
+        demo_trace=args.trace,
+        object_name=args.object,
+        demonstrations=demonstrations,
     )
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(doc, indent=1))
     s = doc["summary"]
     print(
-        f"{args.task}: success {100 * s['success_rate']:.0f}% of {s['n']}, protective stops {s['protective_stops']}, "
+        f"{args.task}{f' ({args.object})' if args.object else ''}: success {100 * s['success_rate']:.0f}% of {s['n']}, protective stops {s['protective_stops']}, "
         f"max force {s['max_contact_force']['mean']:.1f} N, mean force {s['mean_contact_force']['mean']:.2f} N"
     )
     if "comparison" in doc:

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -281,20 +282,52 @@ def plot_paths(doc: dict[str, Any], path: Path) -> Path | None:
 
 
 def make_report(docs: Sequence[dict[str, Any]], out: str | Path) -> dict[str, Any]:
-    """Write report.md and the PNGs for ``docs`` into ``out``; returns {"markdown": str, "files": [...]}."""
+    """Write report.md and the PNGs for ``docs`` into ``out``; returns {"markdown": str, "files": [...]}.
+
+    Everything is drawn in a temporary folder first and moved into ``out`` at the end, so a failure
+    leaves ``out`` as it was (``out`` may hold other files: ``make demo`` writes its policy there).
+    """
+    import shutil
+    import tempfile
+
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out}: is a file; give the folder to write report.md and the PNGs into")
     out.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix=".report-", dir=out) as tmp:
+        md, names = _draw_report(docs, Path(tmp), out)
+        (Path(tmp) / "report.md").write_text(md)
+        for name in [*names, "report.md"]:
+            shutil.move(str(Path(tmp) / name), out / name)
+    return {"markdown": md, "files": [str(out / name) for name in [*names, "report.md"]]}
+
+
+def _draw_report(docs: Sequence[dict[str, Any]], tmp: Path, out: Path) -> tuple[str, list[str]]:
+    """report.md's text and the PNG files drawn into ``tmp`` (links relative to ``out``)."""
     parts = ["# forcemap evaluation", ""]
-    files = [plot_forces(docs, out / "forces.png")]
+    names = [plot_forces(docs, tmp / "forces.png").name]
     for i, doc in enumerate(docs):
+        obj = f" (object {doc['object']})" if doc.get("object") else ""
         parts += [
-            f"## {doc['task']} — policy `{doc['policy']}`, seeds {doc['seed']}..{doc['seed'] + doc['summary']['n'] - 1}",
+            f"## {doc['task']}{obj} — policy `{doc['policy']}`, seeds {doc['seed']}..{doc['seed'] + doc['summary']['n'] - 1}",
             "",
         ]
         parts += [markdown_table(doc), ""]
         demos = doc.get("demonstrations")
         if demos:
             parts += [f"Demonstration figures from `{demos['source']}`.", ""]
+            shown = sorted({str(d["object"]) for d in demos.get("episodes", []) if d.get("object")})
+            if doc.get("object") and shown and shown != [str(doc["object"])]:
+                parts += [
+                    f"The demonstrations handled {', '.join(shown)}; the reproduction {doc['object']}.",
+                    "",
+                ]
+        videos = [r["video"] for r in doc["episodes"] if r.get("video")]
+        if videos:
+            links = ", ".join(
+                f"[{Path(v).name}]({os.path.relpath(Path(v).resolve(), out.resolve())})" for v in videos
+            )
+            parts += [f"Videos: {links}.", ""]
         # one file per document: two documents of the same task must not overwrite each other's plots
         same_task = sum(d["task"] == doc["task"] for d in docs)
         suffix = "" if len(docs) == 1 else f"_{doc['task']}" + (f"_{i}" if same_task > 1 else "")
@@ -302,14 +335,11 @@ def make_report(docs: Sequence[dict[str, Any]], out: str | Path) -> dict[str, An
             (plot_force_profile, f"force_profile{suffix}.png"),
             (plot_paths, f"path3d{suffix}.png"),
         ):
-            p = fn(doc, out / name)
-            if p is not None:
-                files.append(p)
+            if fn(doc, tmp / name) is not None:
+                names.append(name)
                 parts += [f"![{name}]({name})", ""]
     parts += ["![forces.png](forces.png)", ""]
-    md = "\n".join(parts)
-    (out / "report.md").write_text(md)
-    return {"markdown": md, "files": [str(f) for f in files] + [str(out / "report.md")]}
+    return "\n".join(parts), names
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -343,11 +373,16 @@ def check_eval_document(doc: Any, where: str) -> None:
     for key in ("success_rate", "protective_stops"):
         if not _is_number(summary.get(key)):
             raise bad(f"summary.{key}", "is missing or not a finite number")
+    for key in ("max_contact_force", "mean_contact_force"):  # the bars of forces.png
+        if key not in summary:
+            raise bad(f"summary.{key}", "is missing")
     summaries = {"summary": summary}
     demos = doc.get("demonstrations")
     if demos is not None:
         if not isinstance(demos, dict):
             raise bad("demonstrations", "is not an object")
+        if not isinstance(demos.get("source"), str):
+            raise bad("demonstrations.source", "is missing or not a string")
         summaries.update(
             {f"demonstrations.{k}": demos[k] for k in ("summary_fitted", "summary_all") if k in demos}
         )
@@ -370,21 +405,57 @@ def check_eval_document(doc: Any, where: str) -> None:
                         f"is {value!r}, expected {'3 numbers' if per_axis else 'a number'}",
                     )
     for i, rec in enumerate(doc["episodes"]):
-        if not isinstance(rec, dict):
-            raise bad(f"episodes[{i}]", "is not an object")
-        trace = rec.get("trace")
-        if trace:
-            cols = trace.get("columns") if isinstance(trace, dict) else None
-            rows = trace.get("rows") if isinstance(trace, dict) else None
-            if not isinstance(cols, list) or not isinstance(rows, list):
-                raise bad(f"episodes[{i}].trace", "needs 'columns' and 'rows' lists")
-            wrong = next(
-                (j for j, r in enumerate(rows) if not isinstance(r, list) or len(r) != len(cols)), None
-            )
-            if wrong is not None:
-                raise bad(
-                    f"episodes[{i}].trace.rows[{wrong}]", f"does not have the {len(cols)} columns {cols}"
-                )
+        _check_record(rec, f"episodes[{i}]", bad, seed=True)
+    if demos is not None:
+        if not isinstance(demos.get("episodes", []), list):
+            raise bad("demonstrations.episodes", "is not a list")
+        for i, rec in enumerate(demos.get("episodes", [])):
+            _check_record(rec, f"demonstrations.episodes[{i}]", bad, seed=False)
+            if not isinstance(rec.get("episode"), int) or isinstance(rec.get("episode"), bool):
+                raise bad(f"demonstrations.episodes[{i}].episode", "is missing or not an integer")
+
+
+#: trace columns the plots read (eval traces have more; the demonstrations' have these)
+PLOTTED_COLUMNS = ("t", "fx", "fy", "fz", "x", "y", "z", "target_x", "target_y", "target_z")
+
+
+def _check_record(rec: Any, field: str, bad, *, seed: bool) -> None:
+    """One episode record: success, force figures, and its trace (columns, finite rows, environment state)."""
+    if not isinstance(rec, dict):
+        raise bad(field, "is not an object")
+    if seed and (not isinstance(rec.get("seed"), int) or isinstance(rec.get("seed"), bool)):
+        raise bad(f"{field}.seed", "is missing or not an integer")
+    if not isinstance(rec.get("success"), bool):
+        raise bad(f"{field}.success", "is missing or not true/false")
+    for key in ("max_contact_force", "mean_contact_force"):
+        if not _is_number(rec.get(key)):
+            raise bad(f"{field}.{key}", f"is {rec.get(key)!r}, expected a finite number")
+    trace = rec.get("trace")
+    if not trace:
+        return
+    cols = trace.get("columns") if isinstance(trace, dict) else None
+    rows = trace.get("rows") if isinstance(trace, dict) else None
+    if not isinstance(cols, list) or not isinstance(rows, list):
+        raise bad(f"{field}.trace", "needs 'columns' and 'rows' lists")
+    missing = [c for c in PLOTTED_COLUMNS if c not in cols]
+    if missing:
+        raise bad(f"{field}.trace.columns", f"lacks {missing}")
+    for j, row in enumerate(rows):
+        if not isinstance(row, list) or len(row) != len(cols):
+            raise bad(f"{field}.trace.rows[{j}]", f"does not have the {len(cols)} columns {cols}")
+        if not all(map(_is_number, row)):
+            raise bad(f"{field}.trace.rows[{j}]", f"is {row!r}: not all finite numbers")
+    state, names = trace.get("environment_state"), trace.get("environment_state_names")
+    if state is not None and not (
+        isinstance(state, list)
+        and all(map(_is_number, state))
+        and isinstance(names, list)
+        and len(names) == len(state)
+        and all(isinstance(n, str) for n in names)
+    ):
+        raise bad(
+            f"{field}.trace.environment_state", "is not finite numbers matching environment_state_names"
+        )
 
 
 def run(args: argparse.Namespace) -> int:

@@ -76,3 +76,48 @@ def test_cli_writes_the_file_and_names_a_bad_episode(segmented_camera_dataset, t
     # a folder for --save is named, not rerun's "Failed to create file: Is a directory"
     assert cli(["viz", "--dataset", str(root), "--save", str(tmp_path)]) == 2
     assert f"--save {tmp_path}: is a folder" in capsys.readouterr().err
+    # any other file is not replaced by a recording
+    (tmp_path / "notes.txt").write_text("mine")
+    assert cli(["viz", "--dataset", str(root), "--save", str(tmp_path / "notes.txt")]) == 2
+    assert "a Rerun recording file ends in .rrd" in capsys.readouterr().err
+    assert (tmp_path / "notes.txt").read_text() == "mine"
+
+
+def test_the_viewer_beside_this_python_is_found_without_an_activated_venv(monkeypatch, tmp_path):
+    """`.venv/bin/forcemap viz` with the venv not activated: rerun's spawn looks on PATH only."""
+    import sys
+    from pathlib import Path
+
+    from lerobot_forcemap.data import viz
+
+    monkeypatch.setenv("PATH", str(tmp_path))  # no rerun on PATH
+    beside = Path(sys.executable).parent / "rerun"
+    assert beside.is_file()  # the viz extra, installed by make venv
+    assert viz.viewer_command() == str(beside)
+    viz._put_viewer_on_path()
+    assert viz.shutil.which("rerun") == str(beside)
+    monkeypatch.setattr(viz.sys, "executable", str(tmp_path / "python"))  # and with none anywhere
+    monkeypatch.setenv("PATH", str(tmp_path))
+    with pytest.raises(ValueError, match="no Rerun viewer found .* --save episode.rrd"):
+        viz._put_viewer_on_path()
+
+
+def test_a_non_finite_value_is_drawn_but_said(segmented_camera_dataset, tmp_path):
+    import shutil
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    root = tmp_path / "press"
+    shutil.copytree(segmented_camera_dataset[0], root)
+    path = next((root / "data").glob("*/*.parquet"))
+    table = pq.read_table(path)
+    force = table.column(layout.OBS_FORCE).to_pylist()
+    force[40][2] = float("nan")
+    col = table.column_names.index(layout.OBS_FORCE)
+    table = table.set_column(col, layout.OBS_FORCE, pa.array(force, type=table.schema.field(col).type))
+    pq.write_table(table, path)
+    with pytest.warns(
+        UserWarning, match=r"episode 0: observation.force is not finite in 1 frame\(s\), first at frame 40"
+    ):
+        visualize_episode(root, 0, save=tmp_path / "nan.rrd")

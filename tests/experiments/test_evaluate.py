@@ -9,6 +9,7 @@ import pytest
 
 from lerobot_forcemap.cli import main
 from lerobot_forcemap.experiments.evaluate import compare, demonstration_records, summarize
+from tests.conftest import REPO_ROOT
 
 
 def test_cli_eval_writes_records_and_demonstrations(press_checkpoint, press_dataset, tmp_path, capsys):
@@ -162,8 +163,6 @@ def test_a_checkpoint_config_that_does_not_read_is_named(press_checkpoint, tmp_p
 def test_cli_eval_on_an_unseen_object(tmp_path, capsys):
     """``--object apple``: the grasping task with an unseen object, recorded in the document; refused by
     name (before any loading) on a task without objects."""
-    from tests.conftest import REPO_ROOT
-
     dataset = REPO_ROOT / "datasets" / "grasp_push"
     if not (dataset / "meta" / "info.json").is_file():
         pytest.skip("datasets/grasp_push not shipped")
@@ -187,6 +186,8 @@ def test_cli_eval_on_an_unseen_object(tmp_path, capsys):
     assert main([*args, "--seed", "1000", "--json", str(out)]) == 0
     doc = json.loads(out.read_text())
     assert doc["object"] == "apple" and doc["episodes"][0]["success"]
+    assert "grasp_push (apple): success 100% of 1" in capsys.readouterr().out
+    assert {d["object"] for d in doc["demonstrations"]["episodes"]} == {"book"}  # what it is compared with
     with pytest.raises(ValueError, match="--object: task 'press' has no objects"):
         main(
             [
@@ -252,3 +253,53 @@ def test_a_bad_dataset_or_seed_is_refused_before_any_rollout(press_checkpoint, t
     # --videos without --video-dir filmed nothing and said nothing
     with pytest.raises(ValueError, match=r"--videos 2: give --video-dir too"):
         main([*base, "--videos", "2"])
+
+
+def test_a_wrong_comparison_or_output_path_is_refused_before_any_rollout(
+    press_checkpoint, tmp_path, monkeypatch
+):
+    """Demonstrations of another task, NaN demonstration figures, a --json under a file: said first,
+    not after every episode has run (or, for the first two, printed as "+1%" and "+nan%")."""
+    import shutil
+
+    import lerobot_forcemap.experiments.evaluate as evaluate
+
+    def no_rollouts(*args, **kwargs):
+        raise AssertionError("the policy was rolled out before the arguments were checked")
+
+    monkeypatch.setattr(evaluate, "evaluate_policy", no_rollouts)
+    base = ["eval", "--policy", str(press_checkpoint), "--task", "press", "--json", str(tmp_path / "e.json")]
+    with pytest.raises(
+        ValueError,
+        match=r"--dataset .*erase: demonstrations of task 'erase' .*not of the evaluated task 'press'",
+    ):
+        main([*base, "--dataset", str(REPO_ROOT / "datasets" / "erase")])
+    nan = tmp_path / "press"
+    shutil.copytree(REPO_ROOT / "datasets" / "press", nan)
+    meta = nan / "meta" / "forcemap_episodes.json"
+    doc = json.loads(meta.read_text())
+    doc["episodes"][2]["max_contact_force"] = float("nan")
+    meta.write_text(json.dumps(doc))
+    with pytest.raises(
+        ValueError, match=r"forcemap_episodes.json: episodes\[2\].max_contact_force: nan is not a finite"
+    ):
+        main([*base, "--dataset", str(nan)])
+    meta.write_text("{not json")
+    with pytest.raises(ValueError, match=r"forcemap_episodes.json: not valid JSON"):
+        main([*base, "--dataset", str(nan)])
+    (tmp_path / "afile").write_text("x")
+    for flag in ("--json", "--video-dir"):
+        args = [*base, "--dataset", str(REPO_ROOT / "datasets" / "press")]
+        target = str(tmp_path / "afile" / ("x.json" if flag == "--json" else "videos"))
+        args = [a if a != str(tmp_path / "e.json") or flag != "--json" else target for a in args]
+        if flag == "--video-dir":
+            args += ["--video-dir", target]
+        with pytest.raises(ValueError, match=rf"{flag} {target}: .*afile is a file, not a folder"):
+            main(args)
+
+
+def test_a_device_that_is_not_one_is_named(press_checkpoint):
+    from lerobot_forcemap.experiments.evaluate import load_policy
+
+    with pytest.raises(ValueError, match=r"--device foo: not a torch device"):
+        load_policy(press_checkpoint, "foo")

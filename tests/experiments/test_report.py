@@ -8,7 +8,7 @@ import numpy as np
 
 from lerobot_forcemap.cli import main
 from lerobot_forcemap.experiments.evaluate import TRACE_COLUMNS, summarize
-from lerobot_forcemap.experiments.report import table_rows
+from lerobot_forcemap.experiments.report import make_report, table_rows
 
 
 def _record(seed, fmax, fmean, trace=True):
@@ -146,8 +146,76 @@ def test_what_is_not_an_eval_document_is_named(tmp_path):
         ({**good, "seed": "1000"}, "field 'seed' is str, expected int"),
         (bad_trace, r"episodes\[1\].trace.rows\[3\] does not have the 19 columns"),
     ]
+    # what the plots read used to fail inside them (KeyError, a float() of a string) or draw silently
+    edits = {
+        r"summary.max_contact_force is missing": lambda d: d["summary"].pop("max_contact_force"),
+        r"episodes\[0\].seed is missing": lambda d: d["episodes"][0].pop("seed"),
+        r"episodes\[1\].success is missing or not true/false": lambda d: d["episodes"][1].pop("success"),
+        r"episodes\[0\].max_contact_force is nan, expected a finite number": lambda d: d["episodes"][
+            0
+        ].update(max_contact_force=float("nan")),
+        r"episodes\[0\].trace.columns lacks \['fx'\]": lambda d: d["episodes"][0]["trace"].update(
+            columns=["time" if c == "fx" else c for c in TRACE_COLUMNS]
+        ),
+        r"episodes\[0\].trace.rows\[40\] is .*: not all finite numbers": lambda d: d["episodes"][0]["trace"][
+            "rows"
+        ][40].__setitem__(3, "abc"),
+        r"episodes\[1\].trace.rows\[2\] is .*: not all finite numbers": lambda d: d["episodes"][1]["trace"][
+            "rows"
+        ][2].__setitem__(0, float("nan")),
+        r"episodes\[0\].trace.environment_state is not finite numbers": lambda d: d["episodes"][0][
+            "trace"
+        ].update(environment_state=["a"] * 8),
+        r"demonstrations.source is missing": lambda d: d["demonstrations"].pop("source"),
+        r"demonstrations.episodes\[0\].episode is missing": lambda d: d["demonstrations"]["episodes"][0].pop(
+            "episode"
+        ),
+        r"demonstrations.episodes\[0\].trace.rows\[5\] does not have the 10 columns": lambda d: d[
+            "demonstrations"
+        ]["episodes"][0]["trace"]["rows"][5].pop(),
+    }
+    for match, edit in edits.items():
+        doc = _doc()
+        edit(doc)
+        cases.append((doc, match))
     for i, (doc, match) in enumerate(cases):
         path = tmp_path / f"bad{i}.json"
         path.write_text(json.dumps(doc))
         with pytest.raises(ValueError, match=f"--json {path}: {match}"):
             main(["report", "--json", str(path), "--out", str(tmp_path / "r")])
+    assert not (tmp_path / "r").exists()  # refused before anything was drawn
+    (tmp_path / "good.json").write_text(json.dumps(good))
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ValueError, match=r"--out .*file: is a file"):
+        main(["report", "--json", str(tmp_path / "good.json"), "--out", str(tmp_path / "file")])
+
+
+def test_a_failing_plot_leaves_the_folder_as_it_was(tmp_path, monkeypatch):
+    """Drawn in a temporary folder and moved at the end: no forces.png without its report.md."""
+    import pytest
+
+    import lerobot_forcemap.experiments.report as report
+
+    out = tmp_path / "r"
+    out.mkdir()
+    (out / "eval.json").write_text("{}")  # make demo keeps its own files there
+
+    def broken(doc, path):
+        raise RuntimeError("plot failed")
+
+    monkeypatch.setattr(report, "plot_paths", broken)
+    with pytest.raises(RuntimeError, match="plot failed"):
+        report.make_report([_doc()], out)
+    assert sorted(p.name for p in out.iterdir()) == ["eval.json"]
+
+
+def test_videos_and_the_grasped_object_are_named(tmp_path):
+    doc = _doc()
+    video = tmp_path / "videos" / "eval_episode_0.mp4"
+    doc["episodes"][0]["video"] = str(video)
+    doc["object"] = "apple"
+    doc["demonstrations"]["episodes"][0]["object"] = "book"
+    md = make_report([doc], tmp_path / "r")["markdown"]
+    assert "## press (object apple) — policy `p`" in md
+    assert "The demonstrations handled book; the reproduction apple." in md
+    assert "Videos: [eval_episode_0.mp4](../videos/eval_episode_0.mp4)." in md
