@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 from collections.abc import Sequence
@@ -437,6 +438,11 @@ def demonstration_records(
     return records, source
 
 
+def is_finite_number(value: object) -> bool:
+    """A finite int or float, not a bool (JSON's NaN and Infinity would print as "nan" in tables)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
 def _check_force_figures(record: Any, where: str) -> None:
     """The force figures of one record are finite numbers (3 per ``_xyz`` key); ``ValueError`` naming
     ``where`` and the key otherwise (a NaN would print as "+nan%" and write non-standard JSON)."""
@@ -447,9 +453,7 @@ def _check_force_figures(record: Any, where: str) -> None:
             continue
         value = np.asarray(record[key], dtype=object)
         shape = (3,) if key.endswith("_xyz") else ()
-        ok = value.shape == shape and all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in value.flat
-        )
+        ok = value.shape == shape and all(map(is_finite_number, value.flat))
         if not ok:
             raise ValueError(
                 f"{where}.{key}: {record[key]!r} is not {'3 finite numbers' if shape else 'a finite number'}"

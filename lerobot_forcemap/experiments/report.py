@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -22,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from .evaluate import FORCE_KEYS
+from .evaluate import FORCE_KEYS, is_finite_number
 
 __all__ = [
     "table_rows",
@@ -347,11 +346,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, help="output folder for report.md and PNGs")
 
 
-def _is_number(value: object) -> bool:
-    """A finite int or float (JSON's NaN and Infinity would print as "nan ± 0.0" in the tables)."""
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
 def check_eval_document(doc: Any, where: str) -> None:
     """Raise ``ValueError`` naming ``where`` and the field when ``doc`` is not what ``forcemap eval``
     writes: the fields the tables and plots read, with their types."""
@@ -371,7 +365,7 @@ def check_eval_document(doc: Any, where: str) -> None:
     if not isinstance(n, int) or n < 1 or len(doc["episodes"]) != n:
         raise bad("summary.n", f"is {n!r} for {len(doc['episodes'])} episode record(s); a report needs >= 1")
     for key in ("success_rate", "protective_stops"):
-        if not _is_number(summary.get(key)):
+        if not is_finite_number(summary.get(key)):
             raise bad(f"summary.{key}", "is missing or not a finite number")
     for key in ("max_contact_force", "mean_contact_force"):  # the bars of forces.png
         if key not in summary:
@@ -396,9 +390,9 @@ def check_eval_document(doc: Any, where: str) -> None:
                 value = block[key].get(part) if isinstance(block[key], dict) else None
                 per_axis = key.endswith("_xyz")
                 if not (
-                    isinstance(value, list) and len(value) == 3 and all(map(_is_number, value))
+                    isinstance(value, list) and len(value) == 3 and all(map(is_finite_number, value))
                     if per_axis
-                    else _is_number(value)
+                    else is_finite_number(value)
                 ):
                     raise bad(
                         f"{name}.{key}.{part}",
@@ -428,7 +422,7 @@ def _check_record(rec: Any, field: str, bad, *, seed: bool) -> None:
     if not isinstance(rec.get("success"), bool):
         raise bad(f"{field}.success", "is missing or not true/false")
     for key in ("max_contact_force", "mean_contact_force"):
-        if not _is_number(rec.get(key)):
+        if not is_finite_number(rec.get(key)):
             raise bad(f"{field}.{key}", f"is {rec.get(key)!r}, expected a finite number")
     trace = rec.get("trace")
     if not trace:
@@ -443,12 +437,12 @@ def _check_record(rec: Any, field: str, bad, *, seed: bool) -> None:
     for j, row in enumerate(rows):
         if not isinstance(row, list) or len(row) != len(cols):
             raise bad(f"{field}.trace.rows[{j}]", f"does not have the {len(cols)} columns {cols}")
-        if not all(map(_is_number, row)):
+        if not all(map(is_finite_number, row)):
             raise bad(f"{field}.trace.rows[{j}]", f"is {row!r}: not all finite numbers")
     state, names = trace.get("environment_state"), trace.get("environment_state_names")
     if state is not None and not (
         isinstance(state, list)
-        and all(map(_is_number, state))
+        and all(map(is_finite_number, state))
         and isinstance(names, list)
         and len(names) == len(state)
         and all(isinstance(n, str) for n in names)
