@@ -73,6 +73,8 @@ TRACE_COLUMNS = (
     "gripper",
 )
 #: the per-episode force figures (env ``info`` keys) compared between demonstration and reproduction
+#: the trace columns of a demonstration (a subset of TRACE_COLUMNS): what forcemap report plots
+DEMO_TRACE_COLUMNS = ("t", "fx", "fy", "fz", "x", "y", "z", "target_x", "target_y", "target_z")
 FORCE_KEYS = ("max_contact_force", "mean_contact_force", "max_contact_force_xyz", "mean_contact_force_xyz")
 
 
@@ -429,7 +431,7 @@ def demonstration_records(
                 act = table[layout.ACTION][rows][:, :3].astype(float)
                 env_state = table[layout.OBS_ENV_STATE][rows][0] if layout.OBS_ENV_STATE in table else None
                 records[int(e)]["trace"] = {
-                    "columns": ["t", "fx", "fy", "fz", "x", "y", "z", "target_x", "target_y", "target_z"],
+                    "columns": list(DEMO_TRACE_COLUMNS),
                     "rows": to_json(np.column_stack([t - t[0], f, ee, act])),
                     "environment_state": to_json(env_state) if env_state is not None else None,
                     "environment_state_names": names,

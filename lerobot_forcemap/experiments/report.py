@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from .evaluate import FORCE_KEYS, is_finite_number
+from .evaluate import DEMO_TRACE_COLUMNS, FORCE_KEYS, is_finite_number
 
 __all__ = [
     "table_rows",
@@ -405,19 +405,19 @@ def check_eval_document(doc: Any, where: str) -> None:
             raise bad("demonstrations.episodes", "is not a list")
         for i, rec in enumerate(demos.get("episodes", [])):
             _check_record(rec, f"demonstrations.episodes[{i}]", bad, seed=False)
-            if not isinstance(rec.get("episode"), int) or isinstance(rec.get("episode"), bool):
+            if not _is_int(rec.get("episode")):
                 raise bad(f"demonstrations.episodes[{i}].episode", "is missing or not an integer")
 
 
-#: trace columns the plots read (eval traces have more; the demonstrations' have these)
-PLOTTED_COLUMNS = ("t", "fx", "fy", "fz", "x", "y", "z", "target_x", "target_y", "target_z")
+def _is_int(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
 
 
 def _check_record(rec: Any, field: str, bad, *, seed: bool) -> None:
     """One episode record: success, force figures, and its trace (columns, finite rows, environment state)."""
     if not isinstance(rec, dict):
         raise bad(field, "is not an object")
-    if seed and (not isinstance(rec.get("seed"), int) or isinstance(rec.get("seed"), bool)):
+    if seed and not _is_int(rec.get("seed")):
         raise bad(f"{field}.seed", "is missing or not an integer")
     if not isinstance(rec.get("success"), bool):
         raise bad(f"{field}.success", "is missing or not true/false")
@@ -431,7 +431,7 @@ def _check_record(rec: Any, field: str, bad, *, seed: bool) -> None:
     rows = trace.get("rows") if isinstance(trace, dict) else None
     if not isinstance(cols, list) or not isinstance(rows, list):
         raise bad(f"{field}.trace", "needs 'columns' and 'rows' lists")
-    missing = [c for c in PLOTTED_COLUMNS if c not in cols]
+    missing = [c for c in DEMO_TRACE_COLUMNS if c not in cols]  # what the plots read
     if missing:
         raise bad(f"{field}.trace.columns", f"lacks {missing}")
     for j, row in enumerate(rows):
