@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from ..data.hub import check_repo_id
 from ..data.staging import check_output, partial_dir, replace_dir
 from ..layout import (
     ACTION,
@@ -105,13 +106,15 @@ def record_demonstrations(
     from .demonstrators import make_demonstrator
 
     if episodes < 1:
-        raise ValueError(f"episodes must be >= 1, got {episodes}")
+        raise ValueError(f"episodes (--episodes) must be >= 1, got {episodes}")
     # numpy's SeedSequence would refuse it only later, as "expected non-negative integer"
     if seed < 0:
-        raise ValueError(f"--seed must be a non-negative integer, got {seed}")
+        raise ValueError(f"seed (--seed) must be a non-negative integer, got {seed}")
     limit = max_attempts if max_attempts is not None else 3 * episodes
     if limit < episodes:
-        raise ValueError(f"max_attempts ({limit}) must be >= episodes ({episodes})")
+        raise ValueError(f"max_attempts (--max-attempts) must be >= episodes ({episodes}), got {limit}")
+    if repo_id is not None:
+        check_repo_id(repo_id, "repo_id (--repo-id)")
     # Checked before any work, and the dataset is written beside `out` (staging): a failed run leaves
     # an existing dataset at `out` as it was, and no half-written one.
     out = check_output(out, overwrite=overwrite)

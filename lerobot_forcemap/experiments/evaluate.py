@@ -663,6 +663,10 @@ def run(args: argparse.Namespace) -> int:
             f"--videos {args.videos}: "
             + ("must be >= 0" if args.videos < 0 else "give --video-dir too (where the mp4 files go)")
         )
+    if args.videos is not None and args.videos > args.episodes:  # would film fewer than asked, silently
+        raise ValueError(
+            f"--videos {args.videos}: more than --episodes {args.episodes}; film at most every episode"
+        )
     if args.dataset:  # found before the rollouts, not after them with nothing written
         from lerobot_forcemap.data.schema import require_dataset_root
 

@@ -28,6 +28,7 @@ import functools
 import hashlib
 import json
 import math
+import re
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass
@@ -538,6 +539,26 @@ def code_fingerprint() -> str:
     for f in sorted(root.glob("datasets/*/data/*/*.parquet")):
         h.update(f"{f.relative_to(root)}:{f.stat().st_size}".encode())
     return h.hexdigest()[:10]
+
+
+def prune_stale_caches(workdir: str | Path, keep: str | None = None) -> tuple[list[Path], int]:
+    """Remove ``workdir/{raw,checkpoints}/<fingerprint>`` folders of every code version but ``keep``
+    (default: this one's): no later run can reuse them, and each holds tens of MB. Returns the removed
+    folders and the bytes they held. Only folder names shaped like a fingerprint are touched."""
+    import shutil
+
+    keep = code_fingerprint() if keep is None else keep
+    removed, size = [], 0
+    for kind in ("raw", "checkpoints"):
+        base = Path(workdir) / kind
+        if not base.is_dir():
+            continue
+        for d in sorted(base.iterdir()):
+            if d.is_dir() and d.name != keep and re.fullmatch(r"[0-9a-f]{10}", d.name):
+                size += sum(f.stat().st_size for f in d.rglob("*") if f.is_file())
+                shutil.rmtree(d)
+                removed.append(d)
+    return removed, size
 
 
 def _run_job_cached(args: tuple[Job, str, bool]) -> dict[str, Any]:

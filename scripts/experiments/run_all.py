@@ -13,8 +13,9 @@ Stages (each module's docstring has the details and the protocol is in ``common.
 5. report: ``results/experiments.json``, ``results/experiments.md``, PNGs (``report.py``), with the
    learned baselines merged from ``results/learned/`` (trained by ``learned_baselines.py``).
 
-Every episode's record is cached in ``outputs/experiments/raw/<job>.json``: a second run only
-re-aggregates (that is how to refresh the report once the learned baselines land). ``--force``
+Every episode's record is cached in ``outputs/experiments/raw/<code fingerprint>/<job>.json``: a
+second run only re-aggregates (that is how to refresh the report once the learned baselines land);
+a run removes the caches (records and checkpoints) of other code versions and says so. ``--force``
 re-runs everything; ``--quick`` is the smoke-test size (2 demonstrations, 2 seeds, tiny grids) and
 must be given ``--out`` (it never writes ``results/``), as must ``--only`` with some of the stages.
 The repo's ``configs/`` is rewritten only by a full run into ``results/``; other runs write theirs
@@ -74,7 +75,7 @@ def _run(settings: Settings, stages: tuple[str, ...]) -> dict:
     import tuning as tuning_mod
     from cells import aggregate, demonstration_record, run_cells
 
-    from lerobot_forcemap.experiments.paper import code_fingerprint
+    from lerobot_forcemap.experiments.paper import code_fingerprint, prune_stale_caches
 
     s = settings
     s.workdir.mkdir(parents=True, exist_ok=True)
@@ -212,6 +213,12 @@ def _run(settings: Settings, stages: tuple[str, ...]) -> dict:
     print(
         f"total wall time {runtime['total_s']:.0f} s ({runtime['cached_jobs']} of {runtime['jobs']} jobs cached)"
     )
+    stale, size = prune_stale_caches(s.workdir)
+    if stale:  # each code change leaves ~40 MB of records and checkpoints no later run can reuse
+        print(
+            f"removed the caches of {len({d.name for d in stale})} earlier code version(s) under {s.workdir} "
+            f"({size / 1e6:.0f} MB)"
+        )
     return doc
 
 

@@ -253,6 +253,9 @@ def test_a_bad_dataset_or_seed_is_refused_before_any_rollout(press_checkpoint, t
     # --videos without --video-dir filmed nothing and said nothing
     with pytest.raises(ValueError, match=r"--videos 2: give --video-dir too"):
         main([*base, "--videos", "2"])
+    # more videos than episodes filmed fewer than asked, silently
+    with pytest.raises(ValueError, match=r"--videos 4: more than --episodes 3"):
+        main([*base, "--episodes", "3", "--videos", "4", "--video-dir", str(tmp_path / "v")])
 
 
 def test_a_wrong_comparison_or_output_path_is_refused_before_any_rollout(

@@ -84,7 +84,19 @@ def test_tuning_records_its_grid_and_choices(tiny_run):
     assert (s.workdir / "tuning_quick.json").is_file()
 
 
-def test_second_run_is_served_from_the_cache(tiny_run):
+def test_second_run_is_served_from_the_cache_and_drops_other_code_versions(tiny_run, capsys):
+    from lerobot_forcemap.experiments.paper import code_fingerprint
+
     s, _ = tiny_run
+    stale = [s.workdir / kind / "0123456789" for kind in ("raw", "checkpoints")]
+    for d in stale:
+        d.mkdir(parents=True)
+        (d / "old.json").write_bytes(b"x" * 2_000_000)
+    mine = s.workdir / "raw" / "notes"  # not a fingerprint: left alone
+    mine.mkdir()
     doc = run_all.run(s, ("tune", "table2"))
     assert doc["runtime"]["cached_jobs"] == doc["runtime"]["jobs"] > 0
+    assert not any(d.exists() for d in stale) and mine.is_dir()
+    assert any((s.workdir / "raw" / code_fingerprint()).iterdir())
+    out = " ".join(capsys.readouterr().out.split())
+    assert f"removed the caches of 1 earlier code version(s) under {s.workdir} (4 MB)" in out
