@@ -29,7 +29,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .config import SegmentationConfig, Stream, stream_list
+from .config import SegmentationConfig, Stream, check_config, stream_list
 from .segment import analyse_stream
 from .timebase import check_shared_time_base
 
@@ -49,7 +49,7 @@ def auto_weights(streams: Sequence[Stream], config: SegmentationConfig | None = 
     Uses the config's derivative, window, polyorder and duplicated-timestamp policy. When every
     stream is flat (no contrast anywhere) it warns and returns uniform weights.
     """
-    config = SegmentationConfig() if config is None else config
+    config = check_config(config, "auto_weights")
     streams = stream_list(streams, "auto_weights")
     names = [s.name for s in streams]
     if len(set(names)) != len(names):

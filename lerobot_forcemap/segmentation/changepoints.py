@@ -21,6 +21,7 @@ def sample_changepoints(
     pmf: np.ndarray, rng: np.random.Generator, n_samples: int, n_pass: int, window: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """(candidate changepoints, sorted draws) of the paper's sampling consensus."""
+    _check_counts(n_samples=n_samples, n_pass=n_pass, window=window)
     draws = np.sort(rng.choice(pmf.size, size=n_samples, replace=True, p=pmf))
     candidates: list[int] = []
     anchor = 0
@@ -40,6 +41,7 @@ def sample_changepoints(
 
 def peak_changepoints(pmf: np.ndarray, floor_level: float, peak_ratio: float, window: int) -> np.ndarray:
     """Frames of the local maxima of pmf with height >= peak_ratio * floor_level, >= window apart."""
+    _check_counts(window=window)
     peaks, _ = find_peaks(pmf, height=peak_ratio * floor_level, distance=window)
     return peaks.astype(np.int64)
 
@@ -48,7 +50,13 @@ def enforce_min_segment_length(
     candidates: np.ndarray, strength: np.ndarray, n_frames: int, min_length: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """(changepoints [0, ..., T] sorted, rejected candidates sorted); see module doc."""
-    candidates = np.asarray(candidates, dtype=np.int64)
+    # min_length >= 1 is what keeps every segment non-empty (0 would accept T and repeated candidates)
+    _check_counts(n_frames=n_frames, min_length=min_length)
+    candidates = np.asarray(candidates, dtype=np.int64).reshape(-1)
+    if np.shape(strength) != candidates.shape:
+        raise ValueError(
+            f"strength must have one value per candidate {candidates.shape}, got {np.shape(strength)}"
+        )
     order = np.lexsort((candidates, -np.asarray(strength, dtype=np.float64)))
     accepted: list[int] = []
     rejected: list[int] = []
@@ -57,3 +65,10 @@ def enforce_min_segment_length(
         (accepted if ok else rejected).append(c)
     changepoints = np.array([0, *sorted(accepted), n_frames], dtype=np.int64)
     return changepoints, np.array(sorted(rejected), dtype=np.int64)
+
+
+def _check_counts(**counts: object) -> None:
+    """ValueError naming the first of ``counts`` that is not an int >= 1."""
+    for name, value in counts.items():
+        if not (isinstance(value, int | np.integer) and not isinstance(value, bool) and value >= 1):
+            raise ValueError(f"{name} must be an int >= 1, got {value!r}")

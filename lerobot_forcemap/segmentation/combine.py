@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from .config import Mode
+from .config import MIN_SIGMA, Mode
 
 GAUSS_RADIUS_SIGMAS = 8.0  # Gaussians are cut at ±8σ: the dropped tail is below 1.3e-14 of the peak
 
@@ -36,13 +36,23 @@ GAUSS_RADIUS_SIGMAS = 8.0  # Gaussians are cut at ±8σ: the dropped tail is bel
 def stream_pmf(keypoints: np.ndarray, n_frames: int, sigma: float, floor: float) -> tuple[np.ndarray, float]:
     """pmf (T,) of one stream's changepoints and its floor level (the pmf value far from keypoints).
 
-    Vectorised over keypoints and frames: every keypoint's Gaussian (cut at ±8σ) is scattered into
-    the frame axis with one np.bincount.
+    Vectorised over keypoints and frames: every keypoint's Gaussian (cut at ±8σ, and at T frames: no
+    frame lies further from a keypoint) is scattered into the frame axis with one np.bincount.
     """
+    if not (isinstance(n_frames, int | np.integer) and n_frames >= 1):
+        raise ValueError(f"n_frames must be an int >= 1, got {n_frames!r}")
+    if not (np.isfinite(sigma) and sigma >= MIN_SIGMA):
+        raise ValueError(f"sigma must be >= {MIN_SIGMA:g} samples, got {sigma!r}")
+    if not (np.isfinite(floor) and floor > 0):
+        raise ValueError(f"floor must be > 0, got {floor!r}")
+    keypoints = np.asarray(keypoints, dtype=np.int64).reshape(-1)
+    if keypoints.size and (keypoints.min() < 0 or keypoints.max() >= n_frames):
+        raise ValueError(
+            f"keypoints must be frames in [0, {n_frames}), got {keypoints.min()}..{keypoints.max()}"
+        )
     raw = np.full(n_frames, floor / n_frames)
-    keypoints = np.asarray(keypoints, dtype=np.int64)
     if keypoints.size:
-        radius = int(math.ceil(GAUSS_RADIUS_SIGMAS * sigma))
+        radius = min(int(math.ceil(GAUSS_RADIUS_SIGMAS * sigma)), n_frames)
         offsets = np.arange(-radius, radius + 1)
         bump = np.exp(-0.5 * (offsets / sigma) ** 2) / (sigma * math.sqrt(2.0 * math.pi))
         frames = keypoints[:, None] + offsets[None, :]  # (K, 2r+1)
@@ -61,7 +71,16 @@ def combine_pmfs(
 
     Streams with weight 0 are left out; raises ValueError when no weight is positive.
     """
+    pmfs = np.asarray(pmfs, dtype=np.float64)
     weights = np.asarray(weights, dtype=np.float64)
+    floor_levels = np.asarray(floor_levels, dtype=np.float64)
+    if pmfs.ndim != 2 or weights.shape != (pmfs.shape[0],) or floor_levels.shape != (pmfs.shape[0],):
+        raise ValueError(
+            f"pmfs (n, T), floor_levels (n,) and weights (n,) must agree, got {pmfs.shape}, "
+            f"{floor_levels.shape} and {weights.shape}"
+        )
+    if not (np.isfinite(weights).all() and (weights >= 0).all()):
+        raise ValueError(f"weights must be finite and >= 0, got {weights.tolist()}")
     active = weights > 0
     if not active.any():
         raise ValueError("all stream weights are zero: at least one stream needs a weight > 0")

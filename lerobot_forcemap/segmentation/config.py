@@ -23,6 +23,11 @@ DERIVATIVES: tuple[str, ...] = ("savgol", "difference")
 DUPLICATE_TIMES: tuple[str, ...] = ("merge", "raise")
 #: largest stream weight accepted (weight × log-pmf must stay finite in the geometric combination)
 MAX_STREAM_WEIGHT = 1e100
+#: narrowest keypoint Gaussian, in samples (narrower is a spike on the keypoint's frame anyway, and its
+#: 1/σ peak would leave float64's range)
+MIN_SIGMA = 1e-3
+#: most draws of sample mode (the paper draws 20; each draw is 8 bytes of memory)
+MAX_SAMPLE_DRAWS = 1_000_000
 
 
 def _first_bad_index(mask: np.ndarray) -> tuple[int, ...]:
@@ -34,6 +39,8 @@ def _first_bad_index(mask: np.ndarray) -> tuple[int, ...]:
 def _real(value: object) -> float:
     """``float(value)``, or NaN for what is not a real number (so the caller's check names the field)."""
     if isinstance(value, (bool, str, bytes)):  # float("2") would pass, then fail as a str downstream
+        return float("nan")
+    if isinstance(value, np.ndarray) and value.ndim > 0:  # float() of a 1-element array is deprecated
         return float("nan")
     try:
         return float(value)
@@ -120,9 +127,10 @@ class Stream:
             raise ValueError(
                 f"stream {self.name!r}: threshold is a fraction of the stream's maximum, in (0, 1], got {self.threshold!r}"
             )
-        # Read-only views: the stream cannot be edited through itself, the caller's arrays stay writable.
-        values = values.view()
-        times = times.view()
+        # Read-only copies: the stream cannot be edited through itself, and a later edit of the caller's
+        # arrays (a NaN, a decreasing time) cannot slip past the checks above.
+        values = values.copy()
+        times = times.copy()
         values.setflags(write=False)
         times.setflags(write=False)
         object.__setattr__(self, "values", values)
@@ -138,7 +146,14 @@ class Stream:
 def stream_list(streams: Iterable[Stream], caller: str) -> list[Stream]:
     """The streams of one call to `caller` as a list; ValueError when there are none or an item is not a
     `Stream` (a bare array would fail later with an AttributeError)."""
-    streams = list(streams)
+    if isinstance(streams, Stream):
+        raise ValueError(
+            f"{caller} takes a list of Streams (all of one demonstration), got one Stream: [stream]"
+        )
+    try:
+        streams = list(streams)
+    except TypeError:
+        raise ValueError(f"{caller} takes a list of Streams, got {type(streams).__name__}") from None
     if not streams:
         raise ValueError(f"{caller} needs at least one stream")
     for s in streams:
@@ -219,8 +234,8 @@ class SegmentationConfig:
         need(is_int(self.grace) and self.grace >= 0, f"grace must be an int >= 0, got {self.grace!r}")
         sigma, floor = _real(self.sigma), _real(self.floor)
         need(
-            self.sigma is None or (np.isfinite(sigma) and sigma > 0),
-            f"sigma must be None or > 0, got {self.sigma!r}",
+            self.sigma is None or (np.isfinite(sigma) and sigma >= MIN_SIGMA),
+            f"sigma must be None or >= {MIN_SIGMA:g} samples, got {self.sigma!r}",
         )
         need(np.isfinite(floor) and floor > 0, f"floor must be > 0, got {self.floor!r}")
         need(self.mode in MODES, f"mode must be one of {MODES}, got {self.mode!r}")
@@ -229,8 +244,8 @@ class SegmentationConfig:
             f"changepoints must be one of {CHANGEPOINT_METHODS}, got {self.changepoints!r}",
         )
         need(
-            is_int(self.n_samples) and self.n_samples >= 1,
-            f"n_samples must be an int >= 1, got {self.n_samples!r}",
+            is_int(self.n_samples) and 1 <= self.n_samples <= MAX_SAMPLE_DRAWS,
+            f"n_samples must be an int in [1, {MAX_SAMPLE_DRAWS}], got {self.n_samples!r}",
         )
         need(is_int(self.n_pass) and self.n_pass >= 1, f"n_pass must be an int >= 1, got {self.n_pass!r}")
         need(
@@ -282,3 +297,14 @@ class SegmentationConfig:
     def rng(self) -> np.random.Generator:
         """The generator for sample mode: the given Generator itself, or a fresh one from the int seed."""
         return self.seed if isinstance(self.seed, np.random.Generator) else np.random.default_rng(self.seed)
+
+
+def check_config(config: object, caller: str) -> SegmentationConfig:
+    """``config`` (None: the defaults) if it is a `SegmentationConfig`; a dict of settings would fail
+    later with an AttributeError that names neither."""
+    if config is None:
+        return SegmentationConfig()
+    if not isinstance(config, SegmentationConfig):
+        hint = " (build one: SegmentationConfig(**settings))" if isinstance(config, dict) else ""
+        raise ValueError(f"{caller}: config must be a SegmentationConfig, got {type(config).__name__}{hint}")
+    return config

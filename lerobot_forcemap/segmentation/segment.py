@@ -9,7 +9,7 @@ import numpy as np
 
 from .changepoints import enforce_min_segment_length, peak_changepoints, sample_changepoints
 from .combine import combine_pmfs, stream_pmf
-from .config import SegmentationConfig, Stream, stream_list
+from .config import SegmentationConfig, Stream, check_config, stream_list
 from .keypoints import stream_keypoints
 from .timebase import TimeRepair, check_shared_time_base, repair_duplicate_times, warn_uneven_spacing
 
@@ -141,7 +141,7 @@ def segment_streams(
     streams shorter than the window, duplicated timestamps with duplicate_times="raise" (NaN/inf and
     decreasing times are caught when each `Stream` is built).
     """
-    config = SegmentationConfig() if config is None else config
+    config = check_config(config, "segment_streams")
     streams = stream_list(streams, "segment_streams")
     names = [s.name for s in streams]
     if len(set(names)) != len(names):

@@ -190,3 +190,20 @@ def test_peaks_must_reach_peak_ratio_times_the_floor():
     assert peak_changepoints(pmf, floor, cfg.peak_ratio, cfg.window).tolist() == []
     assert peak_changepoints(pmf, floor, 1.0, cfg.window).tolist() == [150]
     assert peak_changepoints(pmf, floor, ratio * 1.001, cfg.window).tolist() == []
+
+
+def test_low_level_counts_are_checked_before_they_make_empty_segments() -> None:
+    # min_length 0 accepted 0, T and repeats: [0, 0, 5, 5, 10, 10], three empty segments
+    with pytest.raises(ValueError, match="min_length must be an int >= 1, got 0"):
+        enforce_min_segment_length(np.array([0, 5, 5, 10]), np.ones(4), 10, 0)
+    with pytest.raises(ValueError, match="n_frames must be an int >= 1, got 0"):
+        enforce_min_segment_length(np.array([], dtype=np.int64), np.ones(0), 0, 1)
+    with pytest.raises(ValueError, match=r"one value per candidate \(2,\), got \(3,\)"):
+        enforce_min_segment_length(np.array([3, 6]), np.ones(3), 10, 1)
+    pmf = np.full(100, 0.01)
+    with pytest.raises(ValueError, match="window must be an int >= 1, got 0"):
+        peak_changepoints(pmf, 0.01, 2.0, 0)
+    with pytest.raises(ValueError, match="window must be an int >= 1, got 0"):
+        sample_changepoints(pmf, np.random.default_rng(0), 20, 3, 0)
+    cp, rejected = enforce_min_segment_length(np.array([0, 5, 5, 10]), np.ones(4), 10, 1)
+    assert cp.tolist() == [0, 5, 10] and rejected.tolist() == [0, 5, 10]

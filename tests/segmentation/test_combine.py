@@ -166,3 +166,39 @@ def test_segment_streams_agrees_with_per_sample_loop_reference(mode: str, change
         assert {k: v.tolist() for k, v in fast.keypoints.items()} == ref["keypoints"]
         np.testing.assert_allclose(fast.pmf, ref["pmf"], rtol=1e-9, atol=0)
         np.testing.assert_array_equal(fast.changepoints, ref["changepoints"])
+
+
+def test_a_gaussian_wider_than_the_demo_is_cut_at_its_length() -> None:
+    """σ = 1e7 frames used to build a (K, 1.6e8) table (4 GB for T = 600); every frame lies within T of
+    each keypoint, so cutting there changes nothing."""
+    n = 600
+    p, level = stream_pmf(np.array([100, 500]), n, 1e7, floor=1.0)
+    frames = np.arange(n)
+    direct = sum(np.exp(-0.5 * ((frames - k) / 1e7) ** 2) / (1e7 * np.sqrt(2 * np.pi)) for k in (100, 500))
+    direct = direct + 1.0 / n
+    np.testing.assert_allclose(p, direct / direct.sum(), rtol=1e-12)
+    assert level == pytest.approx((1.0 / n) / direct.sum(), rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        ((np.array([5]), 0, SIGMA, 1.0), "n_frames must be an int >= 1, got 0"),
+        ((np.array([5]), T, 0.0, 1.0), r"sigma must be >= 0.001 samples, got 0.0"),
+        ((np.array([], dtype=np.int64), T, SIGMA, 0.0), "floor must be > 0, got 0.0"),
+        ((np.array([5, T]), T, SIGMA, 1.0), rf"keypoints must be frames in \[0, {T}\), got 5..{T}"),
+    ],
+)
+def test_stream_pmf_refuses_what_would_give_nan_or_a_division_by_zero(args, message) -> None:
+    with pytest.raises(ValueError, match=message):
+        stream_pmf(*args)
+
+
+def test_combine_pmfs_refuses_weights_it_would_drop_or_misalign() -> None:
+    pmfs, floors = three_pmfs()
+    with pytest.raises(ValueError, match=r"weights must be finite and >= 0, got \[1.0, -1.0, 1.0\]"):
+        combine_pmfs(pmfs, floors, np.array([1.0, -1.0, 1.0]), "linear")
+    with pytest.raises(ValueError, match=r"weights must be finite and >= 0, got \[1.0, nan, 1.0\]"):
+        combine_pmfs(pmfs, floors, np.array([1.0, np.nan, 1.0]), "geometric")
+    with pytest.raises(ValueError, match=r"must agree, got \(3, 1200\), \(3,\) and \(2,\)"):
+        combine_pmfs(pmfs, floors, np.ones(2), "product")

@@ -178,6 +178,17 @@ def test_other_bad_input() -> None:
         Stream("a", values, times, weight=None)
     with pytest.raises(ValueError, match="stream 'a': values must have shape"):
         Stream("a", np.zeros((300, 2, 2)), times)
+    # a single Stream, or a dict of settings, failed with a TypeError / AttributeError naming neither
+    with pytest.raises(ValueError, match="segment_streams takes a list of Streams .*got one Stream"):
+        segment_streams(Stream("a", values, times))
+    with pytest.raises(ValueError, match="segment_streams takes a list of Streams, got NoneType"):
+        segment_streams(None)
+    with pytest.raises(ValueError, match=r"config must be a SegmentationConfig, got dict \(build one"):
+        segment_streams([Stream("a", values, times)], {"window": 64})
+    with pytest.raises(ValueError, match="auto_weights: config must be a SegmentationConfig, got str"):
+        auto_weights([Stream("a", values, times)], "peaks")
+    with pytest.raises(ValueError, match="stream 'a': weight must be finite and >= 0, got array"):
+        Stream("a", values, times, weight=np.array([1.0]))
 
 
 def test_defaults_are_the_authors_ur5e_values_with_geometric_pooling() -> None:
@@ -202,8 +213,10 @@ def test_defaults_are_the_authors_ur5e_values_with_geometric_pooling() -> None:
         ({"derivative": "spline"}, "derivative must be one of"),
         ({"window": 3}, "window must be an int >= 5"),
         ({"floor": 0.0}, "floor must be > 0"),
-        ({"sigma": -1.0}, "sigma must be None or > 0"),
-        ({"sigma": "a"}, "sigma must be None or > 0, got 'a'"),
+        ({"sigma": -1.0}, "sigma must be None or >= 0.001 samples"),
+        ({"sigma": 1e-300}, "sigma must be None or >= 0.001 samples"),  # 1/σ overflowed
+        ({"sigma": "a"}, "sigma must be None or >= 0.001 samples, got 'a'"),
+        ({"n_samples": 10**12}, r"n_samples must be an int in \[1, 1000000\]"),  # 7 TiB of draws
         ({"floor": None}, "floor must be > 0, got None"),
         ({"seed": 1.5}, "seed must be an int"),
         ({"min_segment_length": 0}, "min_segment_length"),
@@ -269,9 +282,15 @@ def test_stream_keeps_caller_arrays_writable() -> None:
     values, times = event_stream(300)
     stream = Stream("arm", values, times)
     assert values.flags.writeable and times.flags.writeable  # the caller's arrays stay writable
-    assert not stream.values.flags.writeable  # the stream's own view is read-only
+    assert not stream.values.flags.writeable  # the stream's own copy is read-only
     with pytest.raises(ValueError):
         stream.values[0, 0] = 1.0
+    # the stream holds copies: an edit after the checks (a NaN, a time going back) cannot reach it
+    checked = stream.values.copy(), stream.times.copy()
+    values[10] = np.nan
+    times[5] = -1.0
+    np.testing.assert_array_equal(stream.values, checked[0])
+    np.testing.assert_array_equal(stream.times, checked[1])
 
 
 @pytest.mark.parametrize("derivative", ["savgol", "difference"])
