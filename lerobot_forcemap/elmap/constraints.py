@@ -200,7 +200,10 @@ def resolve_constraints(
 
     max_step = constraints.max_step
     if max_step is not None:
-        max_step = float(max_step)
+        try:
+            max_step = float(max_step)
+        except (TypeError, ValueError):
+            raise ValueError(f"constraints.max_step: expected a number > 0, got {max_step!r}") from None
         if not (np.isfinite(max_step) and max_step > 0):
             raise ValueError(
                 f"constraints.max_step: must be a positive finite length, got {constraints.max_step}"

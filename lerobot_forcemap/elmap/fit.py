@@ -90,7 +90,8 @@ class ElasticMapFit:
     node coordinate in the last M-step (positions' units; 0 when the assignment repeated without force
     points) and last_spring_step the largest change of a force point's spring length Δ in that iteration
     (0 without force points): how far from a fixed point a fit stopped at ``max_iter`` still is, against
-    step_tolerance (``xtol`` times the data's extent), the bound both must meet for ``"converged"``.
+    step_tolerance (``xtol`` times the data's extent, or its largest magnitude (at least 1) for data at
+    rest), the bound both must meet for ``"converged"``.
     """
 
     nodes: Array
@@ -120,14 +121,24 @@ class ElasticMapFit:
 
     def position_at(self, t: ArrayLike) -> Array:
         """Positions (len(t), d) along the time law (linear between nodes, clamped at the ends)."""
-        t = np.atleast_1d(np.asarray(t, dtype=float))
+        t = _query_times(t, "position_at")
         return np.stack([np.interp(t, self.node_times, self.nodes[:, q]) for q in range(self.dim)], axis=1)
 
     def orientation_at(self, t: ArrayLike) -> Array:
         """Quaternions (len(t), 4) along the time law (SLERP between nodes)."""
         if self.orientations is None:
             raise ValueError("orientation_at: this map was fitted without orientations")
-        return slerp_sequence(self.node_times, self.orientations, t)
+        return slerp_sequence(self.node_times, self.orientations, _query_times(t, "orientation_at"))
+
+
+def _query_times(t: ArrayLike, caller: str) -> Array:
+    """Query times as a finite (n,) float array; a (2, 2) array gave (2, d, 2) positions, NaN gave NaN rows."""
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    if t.ndim != 1:
+        raise ValueError(f"{caller}: t must be a number or a 1-D array of seconds, got shape {t.shape}")
+    if not np.all(np.isfinite(t)):
+        raise ValueError(f"{caller}: t[{int(np.argmax(~np.isfinite(t)))}] is not finite")
+    return t
 
 
 # ----------------------------------------------------------------------------------------------
@@ -416,26 +427,56 @@ def arc_length_resample(path: Array, n: int, s: Array | None = None) -> Array:
 # input checks
 
 
+def _is_array(v: object) -> bool:
+    """An array object (numpy, or one that converts itself: pandas, torch), not a nested Python list."""
+    return isinstance(v, np.ndarray) or (hasattr(v, "__array__") and not isinstance(v, (list, tuple)))
+
+
 def _as_demo_list(value: object, name: str) -> list[Array]:
-    if isinstance(value, np.ndarray):
+    """``value`` as a list of (T, d) float arrays: one array (numpy, pandas, nested lists) is one demo,
+    a list or tuple of array objects is several. ``times`` may be datetimes (converted to seconds)."""
+    if _is_array(value):
         items = [value]
-    elif isinstance(value, (list, tuple)) and len(value) and all(isinstance(v, np.ndarray) for v in value):
+    elif isinstance(value, (list, tuple)) and len(value) and all(_is_array(v) for v in value):
         items = list(value)
+        shapes = {np.shape(v) for v in items}
+        if (
+            name == "positions"
+            and len(shapes) == 1
+            and len(s := next(iter(shapes))) == 1
+            and len(items) > s[0] <= 4
+        ):
+            # list(x) of a (T, d) array reads as T one-dimensional demos of d samples: say so, not fit that
+            raise ValueError(
+                f"positions: a list of {len(items)} one-dimensional arrays of {s[0]} samples each reads as "
+                f"{len(items)} demos; for one ({len(items)}, {s[0]}) demo pass np.asarray(...) of them"
+            )
     else:
-        try:
-            items = [np.asarray(value, dtype=float)]
-        except (TypeError, ValueError):
-            raise ValueError(f"{name}: expected a (T, d) array or a list of them") from None
+        items = [value]
     out = []
     for k, a in enumerate(items):
+        where = f"{name}[{k}]"
         try:
-            a = np.asarray(a, dtype=float)
-        except (TypeError, ValueError):
-            raise ValueError(f"{name}[{k}]: not a numeric array") from None
+            a = np.asarray(a)
+        except (TypeError, ValueError):  # ragged nested lists
+            a = None
+        if a is None or a.dtype == object:
+            raise ValueError(
+                f"{where}: not a rectangular numeric array (several demos of different lengths go in a "
+                "list of (T, d) numpy arrays)"
+            )
+        if a.dtype.kind in "Mm":  # datetimes and durations: seconds, as documented
+            if name != "times":
+                raise ValueError(f"{where}: got {a.dtype} values; expected numbers")
+            a = (a - a.reshape(-1)[0]) / np.timedelta64(1, "s") if a.size else a.astype(float)
+        if a.dtype.kind not in "biuf":
+            raise ValueError(f"{where}: expected real numbers, got dtype {a.dtype}")
+        a = a.astype(float)
         if a.ndim == 1:
             a = a[:, None]
         if a.ndim != 2:
-            raise ValueError(f"{name}[{k}]: expected shape (T, d), got {a.shape}")
+            hint = "; several demos go in a list of (T, d) arrays" if a.ndim == 3 else ""
+            raise ValueError(f"{where}: expected shape (T, d), got {a.shape}{hint}")
         out.append(a)
     return out
 
@@ -599,7 +640,13 @@ def fit_force_elastic_map(
     if orientations is not None:
         quat_list = matching(orientations, "orientations", 4)
         for k, q in enumerate(quat_list):
-            norms = np.linalg.norm(q, axis=1)
+            with np.errstate(over="ignore"):
+                norms = np.linalg.norm(q, axis=1)
+            if not np.all(np.isfinite(norms)):
+                raise ValueError(
+                    f"orientations[{k}]: quaternion norm overflows float64 at frame "
+                    f"{int(np.argmax(~np.isfinite(norms)))} (expected unit quaternions, w first)"
+                )
             if np.any(norms < 1e-9):
                 raise ValueError(
                     f"orientations[{k}]: zero quaternion at frame {int(np.argmax(norms < 1e-9))}"
@@ -625,6 +672,9 @@ def fit_force_elastic_map(
             "float64; choose other units)"
         )
     scale = max(extent, 1e-12)
+    # the stop test's unit: data at rest (a gripper held open) has no extent, and xtol·1e-12 is below
+    # float64's resolution of the nodes, so such fits never "converged"; one unit of the data instead
+    step_scale = extent if extent > 0.0 else max(float(np.max(np.abs(x))), 1.0)
 
     # ---- initial map and constraints
     first = demos[0]
@@ -722,7 +772,7 @@ def fit_force_elastic_map(
         moved = float(np.max(np.abs(y_new - y)))
         last_step = moved
         y = y_new
-        if same and max(moved, spring_moved) <= xtol * scale:
+        if same and max(moved, spring_moved) <= xtol * step_scale:
             reason = "converged"
             break
         # The energy test is the fallback for assignments that keep changing; with an unchanged
@@ -765,5 +815,5 @@ def fit_force_elastic_map(
         energy_history=tuple(history),
         last_step=last_step,
         last_spring_step=spring_moved,
-        step_tolerance=xtol * scale,
+        step_tolerance=xtol * step_scale,
     )

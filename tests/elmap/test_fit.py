@@ -484,6 +484,28 @@ def test_initial_map_is_equally_spaced_in_arc_length_not_in_time():
             dict(forces=np.full((20, 3), 1e140), rho_max=None, weights=np.full(20, 1e-100)),
             "positions/forces/weights: M-step 1 overflowed float64",
         ),
+        # list(x) of one (20, 3) demo fitted 20 one-dimensional demos of 3 samples, silently
+        (
+            dict(positions=list(line_demo(n=20))),
+            r"^positions: a list of 20 one-dimensional arrays of 3 samples",
+        ),
+        (
+            dict(positions=[line_demo(n=20).tolist(), line_demo(n=12).tolist()]),
+            r"^positions\[0\]: not a rectangular numeric array \(several demos of different lengths",
+        ),
+        (dict(positions=np.stack([line_demo(n=20)] * 2)), r"got \(2, 20, 3\); several demos go in a list"),
+        (
+            dict(positions=line_demo(n=20) * (1 + 1j)),
+            r"^positions\[0\]: expected real numbers, got dtype complex",
+        ),
+        (
+            dict(constraints=Constraints(max_step="a")),
+            "^constraints.max_step: expected a number > 0, got 'a'",
+        ),
+        (
+            dict(orientations=np.tile([1e200, 0.0, 0.0, 0.0], (20, 1))),
+            r"^orientations\[0\]: quaternion norm overflows float64 at frame 0",
+        ),
     ],
 )
 @pytest.mark.filterwarnings(
@@ -518,3 +540,35 @@ def test_fuzz_never_returns_nan(seed, t, d, n_nodes, repeats, force_scale, lam, 
     assert np.all(np.isfinite(fit.nodes))
     assert np.all(np.isfinite(fit.node_times))
     assert fit.stop_reason in {"converged", "energy_tol", "cycle", "max_iter"}
+
+
+def test_array_objects_and_datetimes_are_read_as_documented():
+    """pandas demos in a list were refused as "not a list of arrays"; datetime timestamps were read as
+    nanoseconds (duration 1e9 instead of seconds)."""
+    import pandas as pd
+
+    x = line_demo(n=40)
+    ref = fit_force_elastic_map([x, x[:30]], n_nodes=8, times=[np.arange(40) * 0.01, np.arange(30) * 0.01])
+    fit = fit_force_elastic_map(
+        [pd.DataFrame(x), pd.DataFrame(x[:30])],
+        n_nodes=8,
+        times=[
+            pd.Series(pd.date_range("2026-11-24", periods=40, freq="10ms")),
+            np.arange(30, dtype="timedelta64[ms]") * 10,
+        ],
+    )
+    np.testing.assert_array_equal(fit.nodes, ref.nodes)
+    assert fit.duration == pytest.approx(ref.duration) and ref.duration == pytest.approx(0.34)  # mean of 0.39 s and 0.29 s
+    with pytest.raises(ValueError, match=r"^forces\[0\]: got datetime64\[ns\] values; expected numbers"):
+        fit_force_elastic_map(x, pd.Series(pd.date_range("2026-11-24", periods=40, freq="10ms")))
+
+
+def test_query_times_must_be_finite_numbers_or_a_1d_array():
+    fit = fit_force_elastic_map(line_demo(n=40), n_nodes=8)
+    assert fit.position_at(0.1).shape == (1, 3) and fit.position_at([0.0, 0.1]).shape == (2, 3)
+    with pytest.raises(
+        ValueError, match=r"^position_at: t must be a number or a 1-D array of seconds, got shape \(2, 2\)"
+    ):
+        fit.position_at(np.zeros((2, 2)))
+    with pytest.raises(ValueError, match=r"^position_at: t\[1\] is not finite"):
+        fit.position_at([0.0, np.nan])
