@@ -38,6 +38,7 @@ demo: venv
 
 bench: venv
 	$(PY) scripts/bench_elmap.py
+	$(PY) scripts/bench_clarabel_polish.py
 	$(PY) scripts/bench_segmentation.py
 	$(PY) scripts/bench_envs.py
 	$(PY) scripts/bench_policy_fit.py

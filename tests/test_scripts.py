@@ -20,6 +20,11 @@ from tests.conftest import REPO_ROOT
 #: script -> (arguments, a line fragment its output must hold, the real recording it reads or None)
 RUNS = {
     "bench_policy_fit": (["--runs", "1", "--no-train"], "one-shot total", None),
+    "bench_clarabel_polish": (
+        ["--repeats", "1", "--episodes", "1"],
+        "| demo at rest, box 1 cm above | 1 |",
+        None,
+    ),
     "bench_segmentation": (["--runs", "20"], "target: default segment_streams", "ur5e/three_button_press.h5"),
     "bench_envs": (["--episodes", "1", "--no-render"], "| grasp_flip |", None),
     "bench_elmap": (
@@ -72,6 +77,7 @@ def test_script_runs(script, tmp_path):
 
 #: script, arguments, a fragment of the one error line (all rejected right after parsing, before any work)
 BAD_FLAGS = [
+    ("bench_clarabel_polish", ["--episodes", "0"], "--repeats and --episodes must be >= 1"),
     ("bench_elmap", ["--repeats", "0"], "--repeats must be >= 1"),
     ("bench_elmap", ["--baseline-repeats", "0"], "--baseline-repeats must be >= 1"),
     ("bench_envs", ["--episodes", "0"], "--episodes must be >= 1"),

@@ -251,8 +251,12 @@ def solve_m_step_clarabel(
     constraints: ResolvedConstraints,
     extra: InequalityRows | None = None,
     tol: float = 1e-10,
+    polish: bool = True,
 ) -> Array:
     """Same objective as :func:`solve_m_step_banded`, with every constraint as a conic row (Clarabel).
+
+    ``polish``: refine Clarabel's answer to the exact minimiser with :func:`polish_active_set` when the
+    constraints are linear (no ``max_step`` cone); off only to measure what it changes.
 
     Raises ``ValueError`` naming ``constraints`` when the set is infeasible.
     """
@@ -362,7 +366,7 @@ def solve_m_step_clarabel(
     if status not in (clarabel.SolverStatus.Solved, clarabel.SolverStatus.AlmostSolved):
         raise RuntimeError(f"Clarabel M-step failed with status {status}")
     z = np.asarray(sol.x)
-    if n_ineq and constraints.max_step is None:
+    if polish and n_ineq and constraints.max_step is None:
         n_eq = k_eq * d
         ineq = slice(n_eq, n_eq + n_ineq)
         polished = polish_active_set(
