@@ -11,7 +11,13 @@ from .changepoints import enforce_min_segment_length, peak_changepoints, sample_
 from .combine import combine_pmfs, stream_pmf
 from .config import SegmentationConfig, Stream, check_config, stream_list
 from .keypoints import stream_keypoints
-from .timebase import TimeRepair, check_shared_time_base, repair_duplicate_times, warn_uneven_spacing
+from .timebase import (
+    TimeRepair,
+    check_shared_time_base,
+    repair_duplicate_times,
+    warn_short_steps,
+    warn_uneven_spacing,
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -106,8 +112,11 @@ def analyse_stream(stream: Stream, config: SegmentationConfig) -> StreamAnalysis
     x, t = stream.values, stream.times
     if repair is not None:
         x, t = x[repair.kept_frames], t[repair.kept_frames]
+    kept = None if repair is None else repair.kept_frames
     if config.derivative == "savgol":
-        warn_uneven_spacing(stream.name, t, None if repair is None else repair.kept_frames)
+        warn_uneven_spacing(stream.name, t, kept)
+    if len(t) >= 2:
+        warn_short_steps(stream.name, t, kept)
     needed = config.window + (3 if config.derivative == "difference" else 0)
     if x.shape[0] < needed:
         extra = f" after dropping {repair.n_dropped} duplicated-timestamp samples" if repair else ""

@@ -54,6 +54,32 @@ def warn_uneven_spacing(name: str, times: np.ndarray, frames: np.ndarray | None 
     )
 
 
+#: a time step below this fraction of the median is a near-duplicate timestamp: not merged (the
+#: samples are distinct), but its finite differences dwarf the rest of the jerk
+SHORT_STEP_RATIO = 1e-3
+
+
+def warn_short_steps(name: str, times: np.ndarray, frames: np.ndarray | None = None) -> None:
+    """A `UnevenTimeWarning` when a (non-zero) time step is below `SHORT_STEP_RATIO` times the median.
+
+    times (n,) increasing; frames (n,) their original frame indices (None: 0..n-1)."""
+    dt = np.diff(times)
+    median = float(np.median(dt))
+    short = np.flatnonzero(dt < SHORT_STEP_RATIO * median)
+    if not short.size:
+        return
+    worst = int(short[np.argmin(dt[short])])
+    frame = int(worst + 1 if frames is None else frames[worst + 1])
+    warnings.warn(
+        f"stream {name!r}: {short.size} time step(s) shorter than {SHORT_STEP_RATIO:g}x the median"
+        f" ({median * 1e3:.3g} ms), the shortest {dt[worst]:.3g} s before frame {frame}; a near-duplicate"
+        " timestamp makes the jerk there spike and can move the keypoints: fix the recording's clock, or"
+        " give both samples the same time (merged as a duplicate)",
+        UnevenTimeWarning,
+        stacklevel=3,
+    )
+
+
 @dataclass(frozen=True, eq=False)
 class TimeRepair:
     """What the duplicated-timestamp repair did to one stream.

@@ -82,6 +82,23 @@ def test_a_gap_in_the_sample_times_is_reported_for_the_savgol_jerk() -> None:
         )
 
 
+@pytest.mark.parametrize("derivative", ["savgol", "difference"])
+def test_a_near_duplicate_timestamp_is_reported(derivative: str) -> None:
+    """A 1 ns step is not merged (the times differ) but its jerk spike moved a changepoint 766 -> 568."""
+    from lerobot_forcemap.segmentation import UnevenTimeWarning
+
+    values, times = event_stream(600)
+    near = times.copy()
+    near[300] = near[299] + 1e-9
+    with pytest.warns(
+        UnevenTimeWarning,
+        match=r"'arm': 1 time step\(s\) shorter than 0.001x the median .* 1e-09 s before frame 300",
+    ):
+        segment_streams(
+            [Stream("arm", values, near)], SegmentationConfig(window=32, min_run=32, derivative=derivative)
+        )
+
+
 def test_duplicates_in_the_middle_with_different_values_are_reported() -> None:
     values, times = event_stream(600)
     times = times.copy()
