@@ -43,7 +43,7 @@ bench: venv
 	$(PY) scripts/bench_envs.py
 	$(PY) scripts/bench_policy_fit.py
 
-# Paper experiments (8-15 min on 2 cores from an empty cache; cached re-runs only re-aggregate).
+# Paper experiments (8-16 min on 2 cores from an empty cache; cached re-runs only re-aggregate).
 experiments: venv
 	HF_HUB_OFFLINE=1 $(PY) scripts/experiments/run_all.py
 

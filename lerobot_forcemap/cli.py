@@ -16,6 +16,7 @@ import argparse
 import importlib
 import os
 import sys
+import warnings
 
 from .lerobot_logs import quiet_torchcodec_warning
 
@@ -82,6 +83,10 @@ TRACEBACK_ENV = "FORCEMAP_TRACEBACK"
 def cli(argv: list[str] | None = None) -> int:
     """The ``forcemap`` console script: :func:`main` with bad input reported as one error line (plus a hint), exit 2."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    prog = f"forcemap {_command(argv)}"
+    show = warnings.formatwarning
+    # warnings as "forcemap convert: warning: ..." lines, not a source path and a line of our code
+    warnings.formatwarning = lambda message, category, *_args, **_kw: f"{prog}: warning: {message}\n"
     try:
         return main(argv)
     except Exception as err:
@@ -91,9 +96,10 @@ def cli(argv: list[str] | None = None) -> int:
             raise
         if isinstance(err, network):  # not OSErrors: huggingface_hub >= 1.0 talks to the Hub through httpx
             err = f"cannot reach the Hub ({type(err).__name__}: {err})"
-        prog = f"forcemap {_command(argv)}"  # main() parsed argv, so a subcommand was named
         print(f"{prog}: error: {err}\n(set {TRACEBACK_ENV}=1 for the traceback)", file=sys.stderr)
         return 2
+    finally:
+        warnings.formatwarning = show
 
 
 def _network_errors() -> tuple[type[BaseException], ...]:

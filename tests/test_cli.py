@@ -78,4 +78,34 @@ def test_a_bad_fit_setting_is_one_line_naming_the_field(tmp_path, capsys, monkey
     dataset = Path(__file__).resolve().parents[1] / "datasets" / "press"
     assert cli(["fit", "--dataset", str(dataset), "--out", str(tmp_path / "o"), "--set", "stiffness=-5"]) == 2
     err = capsys.readouterr().err
-    assert "forcemap fit: error: --set/--episodes:" in err and "ForceMapConfig.stiffness: must be > 0" in err
+    # one line naming the flag it came from; the config's log line (for lerobot-train) is not repeated
+    assert err.startswith("forcemap fit: error: --set: ForceMapConfig.stiffness: must be > 0, got -5.0\n"), (
+        err
+    )
+    assert cli(["fit", "--dataset", str(dataset), "--out", str(tmp_path / "o"), "--episodes", "-1"]) == 2
+    assert capsys.readouterr().err.startswith("forcemap fit: error: --episodes: ForceMapConfig.episodes:")
+
+
+def test_warnings_are_lines_naming_the_command_not_our_source(tmp_path, capsys, monkeypatch):
+    import warnings
+
+    import lerobot_forcemap.experiments.fit as fit
+
+    def warn_then_refuse(*args, **kwargs):
+        warnings.warn("episode 3: no gripper stream", UserWarning, stacklevel=2)
+        raise ValueError("stop here")
+
+    monkeypatch.setattr(fit, "fit_policy", warn_then_refuse)
+    monkeypatch.delenv(TRACEBACK_ENV, raising=False)
+    dataset = Path(__file__).resolve().parents[1] / "datasets" / "press"
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        # printed to stderr through formatwarning, as outside pytest (whose recorder bypasses both)
+        warnings.showwarning = lambda m, c, f, n, file=None, line=None: sys.stderr.write(
+            warnings.formatwarning(m, c, f, n, line)
+        )
+        assert cli(["fit", "--dataset", str(dataset), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("forcemap fit: warning: episode 3: no gripper stream\n"), err
+    assert ".py:" not in err
+    assert warnings.formatwarning("x", UserWarning, "f.py", 1).startswith("f.py:1:")  # restored afterwards

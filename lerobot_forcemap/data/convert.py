@@ -235,7 +235,7 @@ def convert_episodes(
 
     out = Path(out)
     if not float(fps).is_integer() or fps <= 0:
-        raise ValueError(f"fps must be a positive integer (LeRobot stores an int), got {fps}")
+        raise ValueError(f"fps (--fps) must be a positive integer (LeRobot stores an int), got {fps}")
     fps = int(fps)
     if not (np.isfinite(gripper_full_scale) and gripper_full_scale > 0):  # a flag, not the data's fault
         raise ValueError(f"--gripper-full-scale must be a positive number, got {gripper_full_scale}")

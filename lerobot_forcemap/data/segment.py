@@ -188,7 +188,8 @@ def _check_stream_settings(
                 threshold=(thresholds or {}).get(name, STREAM_THRESHOLDS[name]),
             )
         except ValueError as err:
-            raise ValueError(f"--weights/--thresholds: {err}") from None
+            flag = "--thresholds" if "threshold" in str(err) else "--weights"
+            raise ValueError(f"{flag}: {err}") from None
     if not any((weights or {}).get(name, 1.0) > 0 for name in available):
         raise ValueError(
             f"--weights: every stream has weight 0 ({sorted(available)}); one needs a weight > 0"
@@ -516,12 +517,12 @@ def _parse_pairs(items: Sequence[str] | None, what: str) -> dict[str, float]:
     out = {}
     for item in items or ():
         name, sep, value = item.partition("=")
+        if not sep:
+            raise ValueError(f"--{what} takes name=value pairs, got {item!r}")
         try:
-            if not sep:
-                raise ValueError
             number = float(value)
         except ValueError:
-            raise ValueError(f"--{what} takes name=value pairs, got {item!r}") from None
+            raise ValueError(f"--{what} {item!r}: {value!r} is not a number") from None
         if name.strip() in out:
             raise ValueError(f"--{what}: {name.strip()!r} given twice")
         out[name.strip()] = number

@@ -30,7 +30,7 @@ def check_output(out: str | Path, *, overwrite: bool) -> Path:
     if not out.exists():
         return out
     if not overwrite:
-        raise ValueError(f"output {out} exists; pass overwrite=True (--overwrite) to replace it")
+        raise ValueError(f"output {out} exists; give --overwrite (overwrite=True) to replace it")
     if not out.is_dir():
         raise ValueError(f"output {out} is a file, not a dataset folder; not replacing it")
     cwd = Path.cwd()

@@ -155,8 +155,34 @@ def _put_viewer_on_path() -> None:
             "no Rerun viewer found (`rerun` is not on PATH nor beside this Python): write a file with "
             "--save episode.rrd, or install the viz extra (pip install rerun-sdk)"
         )
+    if _headless() and not _viewer_listening():
+        # spawn() would start a viewer that cannot open a window, then time out after 6 s with a traceback
+        raise ValueError(
+            "no display for the Rerun viewer (DISPLAY and WAYLAND_DISPLAY are unset): write a file with "
+            "--save episode.rrd and open it where there is a screen (or start `rerun --web-viewer` first)"
+        )
     if shutil.which("rerun") is None:
         os.environ["PATH"] = f"{Path(viewer).parent}{os.pathsep}{os.environ.get('PATH', '')}"
+
+
+#: where a spawned or already running Rerun viewer listens (rerun-sdk's default)
+VIEWER_PORT = 9876
+
+
+def _headless() -> bool:
+    """Linux with no X11 or Wayland display to open a window on (other systems always have one)."""
+    if not sys.platform.startswith("linux"):
+        return False
+    return not any(os.environ.get(v) for v in ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"))
+
+
+def _viewer_listening() -> bool:
+    """A viewer (a web viewer, say) already listens on the local port: spawn() connects to it."""
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.settimeout(0.2)
+        return s.connect_ex(("127.0.0.1", VIEWER_PORT)) == 0
 
 
 # ---- CLI ------------------------------------------------------------------------------------------------

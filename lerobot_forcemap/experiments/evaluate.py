@@ -616,8 +616,11 @@ def _default_dataset(policy_path: Path) -> Path | None:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from lerobot_forcemap.envs.registration import TASKS
+
     parser.add_argument("--policy", required=True, help="checkpoint folder (config.json + model.safetensors)")
-    parser.add_argument("--task", required=True, help="sim task: press, erase, peg_in_hole, ...")
+    # choices: a typo is named as such, before the checkpoint's dataset is compared with it
+    parser.add_argument("--task", required=True, choices=sorted(TASKS), help="sim task")
     parser.add_argument("--episodes", type=int, default=20, help="number of episodes (default 20)")
     parser.add_argument("--seed", type=int, default=1000, help="env seed of the first episode (default 1000)")
     parser.add_argument("--json", required=True, help="output JSON file")

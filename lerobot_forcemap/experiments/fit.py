@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -57,10 +58,26 @@ def make_config(episodes: Sequence[int] | None = None, overrides: Sequence[str] 
         args.append(f"--{name}={value}")
     if episodes is not None:
         args.append(f"--episodes=[{','.join(str(int(e)) for e in episodes)}]")
+    import logging
+
+    # the config logs its refusal for lerobot-train, whose draccus error drops the text; here the
+    # error line below carries it, so the log line would only say it twice
+    config_log = logging.getLogger(ForceMapConfig.__module__)
+    level = config_log.level
+    config_log.setLevel(logging.CRITICAL)
     try:
         return draccus.parse(ForceMapConfig, args=args)
     except draccus.utils.DraccusException as err:
-        raise ValueError(f"--set/--episodes: {config_error_detail(err)}") from err
+        cause = err.__cause__ or err.__context__
+        # our check names "ForceMapConfig.<field>:", draccus' type errors "`<field>`:"
+        named = re.match(r"ForceMapConfig\.(\w+):", str(cause)) or re.match(r"`(\w+)`:", str(err))
+        detail = str(cause) if named and named.re.pattern.startswith("ForceMap") else config_error_detail(err)
+        if named is None:
+            raise ValueError(f"--set/--episodes: {detail}") from err
+        flag = "--episodes" if named[1] == "episodes" and episodes is not None else "--set"
+        raise ValueError(f"{flag}: {detail}") from err
+    finally:
+        config_log.setLevel(level)
 
 
 def fit_policy(
@@ -79,7 +96,7 @@ def fit_policy(
 
     out = Path(out)
     if out.exists() and any(out.iterdir()) and not overwrite:
-        raise ValueError(f"{out} exists and is not empty; pass overwrite=True (--overwrite)")
+        raise ValueError(f"{out} exists and is not empty; give --overwrite (overwrite=True) to replace it")
     root = require_dataset_root(dataset, "--dataset")
     cfg = config if config is not None else make_config(episodes, overrides)
     t0 = time.perf_counter()

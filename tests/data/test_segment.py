@@ -137,8 +137,9 @@ def test_bad_input(dataset):
         ("--weights", "wrist_force=nan", "stream 'wrist_force': weight must be finite and >= 0, got nan"),
         ("--weights", "wrist_force=-1", "stream 'wrist_force': weight must be finite and >= 0, got -1.0"),
         ("--thresholds", "wrist_force=1.5", r"stream 'wrist_force': threshold is a fraction .* got 1.5"),
-    ):  # a bad value is the flag's fault, not episode 0's
-        with pytest.raises(ValueError, match=rf"^--weights/--thresholds: {message}"):
+        ("--weights", "wrist_force=high", "'wrist_force=high': 'high' is not a number"),
+    ):  # a bad value is the flag's fault, not episode 0's; and that flag's, not "--weights/--thresholds"
+        with pytest.raises(ValueError, match=rf"^{flag}:? {message}"):
             forcemap_main(["segment", "--dataset", str(dataset), flag, value])
     zero = [f"{n}=0" for n in ("joints", "position", "wrist_force", "gripper")]
     with pytest.raises(ValueError, match=r"^--weights: every stream has weight 0"):

@@ -10,7 +10,7 @@ from lerobot_forcemap.data.staging import check_output, partial_dir, replace_dir
 def test_check_output_refuses_what_is_not_a_dataset(tmp_path):
     assert check_output(tmp_path / "new", overwrite=False) == tmp_path / "new"
     (tmp_path / "empty").mkdir()
-    with pytest.raises(ValueError, match="exists; pass overwrite"):
+    with pytest.raises(ValueError, match=r"exists; give --overwrite \(overwrite=True\)"):
         check_output(tmp_path / "empty", overwrite=False)
     check_output(tmp_path / "empty", overwrite=True)  # an empty folder may be replaced
     (tmp_path / "file.txt").write_text("x")
@@ -46,7 +46,7 @@ def test_the_current_folder_is_not_replaced(tmp_path, monkeypatch):
     for out in (Path("."), Path(".."), tmp_path):
         with pytest.raises(ValueError, match=r"is the current folder or holds it"):
             check_output(out, overwrite=True)
-    with pytest.raises(ValueError, match="exists; pass overwrite"):
+    with pytest.raises(ValueError, match=r"exists; give --overwrite \(overwrite=True\)"):
         check_output(".", overwrite=False)
 
 

@@ -91,6 +91,7 @@ def test_the_viewer_beside_this_python_is_found_without_an_activated_venv(monkey
     from lerobot_forcemap.data import viz
 
     monkeypatch.setenv("PATH", str(tmp_path))  # no rerun on PATH
+    monkeypatch.setenv("DISPLAY", ":0")  # a desktop session
     beside = Path(sys.executable).parent / "rerun"
     assert beside.is_file()  # the viz extra, installed by make venv
     assert viz.viewer_command() == str(beside)
@@ -100,6 +101,21 @@ def test_the_viewer_beside_this_python_is_found_without_an_activated_venv(monkey
     monkeypatch.setenv("PATH", str(tmp_path))
     with pytest.raises(ValueError, match="no Rerun viewer found .* --save episode.rrd"):
         viz._put_viewer_on_path()
+
+
+def test_no_display_is_said_before_a_viewer_is_spawned(monkeypatch, segmented_camera_dataset):
+    """On a headless machine spawn() started a viewer that could not open a window, then flush() failed
+    after 6 s of gRPC retries with a traceback."""
+    from lerobot_forcemap.data import viz
+
+    monkeypatch.setattr(viz.sys, "platform", "linux")
+    for var in ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"):
+        monkeypatch.delenv(var, raising=False)
+    monkeypatch.setattr(viz, "_viewer_listening", lambda: False)
+    with pytest.raises(ValueError, match=r"^no display for the Rerun viewer .* --save episode.rrd"):
+        viz.visualize_episode(segmented_camera_dataset[0], 0)
+    monkeypatch.setattr(viz, "_viewer_listening", lambda: True)  # a web viewer already running: go on
+    viz._put_viewer_on_path()
 
 
 def test_a_non_finite_value_is_drawn_but_said(segmented_camera_dataset, tmp_path):
