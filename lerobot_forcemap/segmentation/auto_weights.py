@@ -38,6 +38,9 @@ CONTRAST_EPS = 1e-3
 
 def jerk_contrast(signal: np.ndarray, eps: float = CONTRAST_EPS) -> float:
     """ln(1 / max(median(signal), eps)) for a normalised signal (max 1); 0.0 for an all-zero signal."""
+    signal = np.asarray(signal, dtype=np.float64)
+    if signal.size == 0 or not np.isfinite(signal).all():  # the median of NaN would be a NaN weight
+        raise ValueError(f"signal must be a non-empty finite array, got {signal.size} values")
     if not signal.any():
         return 0.0
     return float(np.log(1.0 / max(float(np.median(signal)), eps)))

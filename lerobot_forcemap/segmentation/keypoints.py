@@ -81,6 +81,8 @@ def savgol_third_derivative(x: np.ndarray, dt: float, window: int, polyorder: in
     Equals scipy.signal.savgol_filter(x, window, polyorder, deriv=3, delta=dt, axis=0, mode="interp").
     Requires n >= window.
     """
+    if np.ndim(x) != 2 or x.shape[0] < window:
+        raise ValueError(f"x must have shape (n, k) with n >= window={window}, got {np.shape(x)}")
     n, k = x.shape
     conv, left, right = savgol_third_derivative_kernels(window, polyorder)
     out = np.empty((n, k))
@@ -198,7 +200,21 @@ def stream_keypoints(
     derivative: Derivative = "savgol",
     polyorder: int = 4,
 ) -> StreamKeypoints:
-    """Keypoints of one stream, x (n, k) at strictly increasing times t (n,), as sample indices (see module doc)."""
+    """Keypoints of one stream, x (n, k) at strictly increasing times t (n,), as sample indices (see module doc).
+
+    `Stream` and `segment_streams` check (and repair) their input first; called directly, the arrays are
+    checked here: a decreasing time would give keypoints without a word."""
+    x, t = np.asarray(x, dtype=np.float64), np.asarray(t, dtype=np.float64)
+    needed = window + (3 if derivative == "difference" else 0)
+    if x.ndim != 2 or t.shape != (x.shape[0],) or x.shape[0] < needed:
+        raise ValueError(
+            f"x (n, k) and t (n,) with n >= {needed} (window={window}, derivative={derivative!r}) expected, "
+            f"got {x.shape} and {t.shape}"
+        )
+    if not (np.isfinite(x).all() and np.isfinite(t).all()):
+        raise ValueError("x and t must be finite")
+    if not (np.diff(t) > 0).all():
+        raise ValueError(f"t must be strictly increasing; step {int(np.argmax(np.diff(t) <= 0))} is not")
     x = x - x[0]  # exact zeros for a constant stream; better conditioned differences
     try:
         with np.errstate(over="ignore", divide="ignore", invalid="ignore"):

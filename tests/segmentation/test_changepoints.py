@@ -207,3 +207,21 @@ def test_low_level_counts_are_checked_before_they_make_empty_segments() -> None:
         sample_changepoints(pmf, np.random.default_rng(0), 20, 3, 0)
     cp, rejected = enforce_min_segment_length(np.array([0, 5, 5, 10]), np.ones(4), 10, 1)
     assert cp.tolist() == [0, 5, 10] and rejected.tolist() == [0, 5, 10]
+
+
+def test_the_exported_keypoint_functions_check_what_segment_streams_would_have_checked() -> None:
+    from lerobot_forcemap.segmentation import jerk_contrast, savgol_third_derivative, stream_keypoints
+
+    t = np.arange(200) * 0.01
+    x = np.zeros((200, 1))
+    kwargs = dict(threshold=0.2, window=32, min_run=8, grace=2)
+    with pytest.raises(ValueError, match=r"t must be strictly increasing; step 99 is not"):
+        stream_keypoints(x, np.r_[t[:100], t[100:] - 1.0], **kwargs)  # gave keypoints silently
+    with pytest.raises(ValueError, match=r"x \(n, k\) and t \(n,\) with n >= 35 .* got \(200,\)"):
+        stream_keypoints(x[:, 0], t, derivative="difference", **kwargs)
+    with pytest.raises(ValueError, match="x and t must be finite"):
+        stream_keypoints(np.full((200, 1), np.nan), t, **kwargs)
+    with pytest.raises(ValueError, match=r"n >= window=32, got \(10, 1\)"):
+        savgol_third_derivative(x[:10], 0.01, 32, 4)
+    with pytest.raises(ValueError, match="non-empty finite"):
+        jerk_contrast(np.array([np.nan, 1.0]))
