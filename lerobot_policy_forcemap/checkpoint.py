@@ -175,6 +175,13 @@ def check_processor_files(folder: str | Path, *, required: bool, warn_missing: b
             raise ValueError(f"{path}: expected a 'steps' list, got {type(steps).__name__}")
         for i, step in enumerate(steps):
             _check_step_config(_check_step_class(step, f"{path}: steps[{i}]"), step, f"{path}: steps[{i}]")
+            norm_map = step.get("config", {}).get("norm_map") or {}
+            if isinstance(norm_map, dict) and any(m != "IDENTITY" for m in norm_map.values()):
+                # the maps act on raw dataset values: a normalising step would feed them other units
+                raise ValueError(
+                    f"{path}: steps[{i}].config.norm_map must map every feature type to 'IDENTITY' (the "
+                    f"forcemap policy is fitted on raw dataset values), got {norm_map}"
+                )
             state_file = step.get("state_file")
             if state_file is None:
                 continue

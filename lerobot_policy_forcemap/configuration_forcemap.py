@@ -124,6 +124,23 @@ def _integer(value: object) -> bool:
     return isinstance(value, int) and not isinstance(value, bool)
 
 
+#: string fields naming dataset / observation features, and the on/off fields (a null from a hand-edited
+#: config.json must not pass as "off")
+KEY_FIELDS = (
+    "pose_key",
+    "force_key",
+    "gripper_key",
+    "finger_force_key",
+    "robot_pose_key",
+    "env_state_key",
+    "joints_key",
+    "segment_column",
+)
+FLAG_FIELDS = ("anchor_by_moved_object", "reanchor", "reanchor_online", "check_task")
+#: most actions one predict_action_chunk call returns (an hour at 100 Hz; a typo of 10**7 would allocate GBs)
+MAX_CHUNK_SIZE = 360_000
+
+
 def _decoding_with_draccus() -> bool:
     """Whether the config is being built by draccus (``lerobot-train``/``lerobot-eval`` flags)."""
     frame = sys._getframe(1)
@@ -235,6 +252,14 @@ class ForceMapConfig(PreTrainedConfig):
         reanchor_blend_s: the junction of a re-anchored segment (where the robot was sent vs the
             shifted path) fades out over this many seconds of the segment, so the object-relative
             path is followed from then on, not only at the segment's end (None: the whole segment).
+
+    Run time:
+        chunk_size: actions per ``predict_action_chunk`` call (``select_action`` takes one at a time).
+        max_iter: EM iterations per elastic map at most (the fit's stop reasons are in the fit report).
+        control_fps, check_task: see the comments at the fields.
+        normalization_mapping: IDENTITY for every feature type and only that: the maps are fitted on
+            the dataset's raw values (metres, newtons), so a normalising processor would feed them
+            other units.
 
     Learning: ``episodes`` to learn from (default ``[0]``: one shot); several are mapped together
     segment by segment (their segment counts must agree). This is what selects the demonstration:
@@ -358,6 +383,16 @@ class ForceMapConfig(PreTrainedConfig):
                 raise ValueError(f"ForceMapConfig.{name}: {what}, got {getattr(self, name)!r}")
 
         need(self.n_obs_steps == 1, "n_obs_steps", "the forcemap policy reads one observation (1)")
+        # types first: a null in config.json would fail below as "'>' not supported" naming no field
+        for name in KEY_FIELDS:
+            need(isinstance(getattr(self, name), str), name, "must be a feature key (a string)")
+        for name in FLAG_FIELDS:
+            need(isinstance(getattr(self, name), bool), name, "must be true or false")
+        need(
+            all(m == NormalizationMode.IDENTITY for m in self.normalization_mapping.values()),
+            "normalization_mapping",
+            "must be IDENTITY for every feature type (the maps are fitted on raw dataset values)",
+        )
         need(self.segments in SEGMENT_SOURCES, "segments", f"must be one of {SEGMENT_SOURCES}")
         need(
             isinstance(self.episodes, list)
@@ -419,19 +454,27 @@ class ForceMapConfig(PreTrainedConfig):
             "gripper_nodes_per_second",
             "must be None or finite and > 0",
         )
-        need(self.reanchor_tolerance >= 0, "reanchor_tolerance", "must be >= 0 m")
         need(
-            self.reanchor_blend_s is None or self.reanchor_blend_s > 0,
+            self.reanchor_tolerance == 0 or _positive_finite(self.reanchor_tolerance),
+            "reanchor_tolerance",
+            "must be finite and >= 0 m",
+        )
+        need(
+            self.reanchor_blend_s is None or _positive_finite(self.reanchor_blend_s),
             "reanchor_blend_s",
-            "must be None or > 0 s",
+            "must be None or finite and > 0 s",
         )
         for name in ("anchor_radius", "static_tolerance"):
-            need(getattr(self, name) > 0, name, "must be > 0")
-        need(_integer(self.chunk_size) and self.chunk_size >= 1, "chunk_size", "must be an integer >= 1")
+            need(_positive_finite(getattr(self, name)), name, "must be finite and > 0 m")
         need(
-            self.control_fps is None or (0 < float(self.control_fps) < float("inf")),
+            _integer(self.chunk_size) and 1 <= self.chunk_size <= MAX_CHUNK_SIZE,
+            "chunk_size",
+            f"must be an integer in [1, {MAX_CHUNK_SIZE}]",
+        )
+        need(
+            self.control_fps is None or (_positive_finite(self.control_fps) and self.control_fps >= 1e-3),
             "control_fps",
-            "must be None (the dataset's fps) or a positive rate in Hz",
+            "must be None (the dataset's fps) or a rate in Hz, finite and >= 0.001",
         )
         need(_integer(self.max_iter) and self.max_iter >= 1, "max_iter", "must be an integer >= 1")
         allowed = set(ELMAP_PARAMS) | set(GRIPPER_PARAMS)
@@ -465,7 +508,7 @@ class ForceMapConfig(PreTrainedConfig):
                 "segment_n_gripper_nodes",
                 "every segment needs >= 3 nodes",
             )
-            need(0 < float(self.fps) < float("inf"), "fps", "a fitted policy needs a finite dataset fps > 0")
+            need(_positive_finite(self.fps), "fps", "a fitted policy needs a finite dataset fps > 0")
             objects = {a for a in self.segment_anchors if a}
             need(
                 not objects or bool(self.env_state_names),

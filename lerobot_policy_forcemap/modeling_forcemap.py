@@ -165,6 +165,11 @@ class ForceMapPolicy(PreTrainedPolicy):
         self._skill = skill
 
     def load_state_dict(self, state_dict, strict: bool = True, assign: bool = False):  # noqa: D102
+        if self.config.is_fitted and all(name in state_dict for name in SKILL_TENSORS):
+            # the checks from_pretrained runs on the weights file, before they replace the buffers
+            arrays = {name: _as_float64(state_dict[name], name) for name in SKILL_TENSORS}
+            # named after the weights file when from_pretrained loads one (safetensors calls this method)
+            check_skill_values(arrays, self.config, getattr(self, "_loading_from", None) or "load_state_dict")
         result = super().load_state_dict(state_dict, strict=strict, assign=assign)
         self._skill = None  # rebuilt from the new buffers on first use
         self.reset()
@@ -221,6 +226,7 @@ class ForceMapPolicy(PreTrainedPolicy):
             raise ValueError(
                 f"{where}: policy type {getattr(config, 'type', type(config).__name__)!r} is not 'forcemap'"
             )
+        config.validate_parameters()  # a config edited after it was built (its fields set one by one)
         # the policy's buffers are allocated from config.json's node counts before LeRobot reads the weights:
         # check the weights' header against them first, so a tampered count is an error, not a huge allocation
         check_safetensors_file(path / SAFETENSORS_SINGLE_FILE, config)
@@ -233,7 +239,11 @@ class ForceMapPolicy(PreTrainedPolicy):
         from lerobot.utils.device_utils import resolve_safetensors_device
         from safetensors.torch import load_model
 
-        load_model(model, model_file, strict=True, device=resolve_safetensors_device(map_location))
+        model._loading_from = str(model_file)
+        try:
+            load_model(model, model_file, strict=True, device=resolve_safetensors_device(map_location))
+        finally:
+            model._loading_from = None
         arrays = {name: model.get_buffer(name).detach().cpu().numpy() for name in SKILL_TENSORS}
         # the dummy's value is never used to act, but lerobot-train --policy.path would log its NaN loss
         arrays[DUMMY_PARAMETER] = getattr(model, DUMMY_PARAMETER).detach().cpu().numpy()
@@ -306,6 +316,8 @@ class ForceMapPolicy(PreTrainedPolicy):
         fills it from the env's task_description)."""
         cfg = self.config
         asked = batch.get("task")
+        if asked is not None and not isinstance(asked, str) and len(asked) != _batch_size(batch):
+            raise ValueError(f"batch 'task' has {len(asked)} entries for a batch of {_batch_size(batch)}")
         if not cfg.dataset_tasks or asked is None:
             return
         unknown = sorted(
@@ -356,8 +368,8 @@ class ForceMapPolicy(PreTrainedPolicy):
         if not (cfg.reanchor and cfg.reanchor_online) or self._next_segment > current:
             return
         started = [s for s in range(self._next_segment, current + 1) if skill.segments[s].anchor]
-        self._next_segment = current + 1
         if not started:
+            self._next_segment = current + 1
             return
         env = _rows(batch, cfg.env_state_key, len(placed))
         if env.shape[1] != len(cfg.env_state_names):
@@ -367,6 +379,9 @@ class ForceMapPolicy(PreTrainedPolicy):
             )
         slots = object_slots(cfg.env_state_names)
         poses = [object_poses(env[i], slots) for i in range(len(placed))]
+        # only now, with the observation accepted: a refused one (NaN, wrong width) retried with a good
+        # one must still re-anchor these segments
+        self._next_segment = current + 1
         for s in started:
             was_provisional = self._provisional[s]
             obj = skill.segments[s].anchor
@@ -391,6 +406,17 @@ class ForceMapPolicy(PreTrainedPolicy):
                 self.reanchor_log.append(
                     {"segment": s, "row": i, "t": float(t), "shift": [float(v) for v in shift]}
                 )
+
+    def _apply(self, fn, recurse: bool = True):
+        """``.to(device)`` moves the maps; a dtype cast (``.half()``, ``.float()``) is undone for them:
+        float16 would move a node by about 0.2 mm, and the checkpoint format stores float64."""
+        maps = {name: self._buffers[name] for name in SKILL_TENSORS if self._buffers.get(name) is not None}
+        super()._apply(fn, recurse)
+        for name, before in maps.items():
+            after = self._buffers[name]
+            if after.dtype != before.dtype:  # keep the float64 values, on the new device
+                self._buffers[name] = before.to(device=after.device)
+        return self
 
     def _actions(self, placed: list[Reproduction], times: np.ndarray, like: Tensor) -> Tensor:
         out = np.stack([rep.actions_at(times) for rep in placed])  # (B, K, 8)
@@ -422,12 +448,30 @@ class ForceMapPolicy(PreTrainedPolicy):
                 "forcemap: the maps were fitted in closed form when the policy was built; further training "
                 "steps only compute the diagnostic loss and change nothing (lerobot-train --steps=1 is enough)"
             )
+        if reduction not in ("mean", "none"):
+            raise ValueError(f"forward: reduction must be 'mean' or 'none', got {reduction!r}")
         if cfg.pose_key not in batch:
             raise ValueError(f"forward: batch has no {cfg.pose_key!r} (keys: {sorted(batch)})")
-        target = _rows(batch, cfg.pose_key, _batch_size(batch))[:, :3]
+        pose = batch[cfg.pose_key]
+        # the rows of the pose itself (a batch of actions alone is a batch too); observations must agree
+        n = int(pose.shape[0]) if getattr(pose, "ndim", 0) == 2 else _batch_size(batch)
+        observed = _observation_rows(batch)
+        if observed and observed != {n}:
+            raise ValueError(f"forward: {cfg.pose_key!r} has {n} rows, the observations {sorted(observed)}")
+        rows = _rows(batch, cfg.pose_key, n)
+        if rows.shape[1] < 3:
+            raise ValueError(
+                f"forward: {cfg.pose_key!r} needs [x y z ...] per row, got {rows.shape[1]} entries"
+            )
+        target = rows[:, :3]
         env = None
         if any(skill.anchors) and cfg.env_state_key in batch:
             env = _rows(batch, cfg.env_state_key, len(target))
+            if env.shape[1] != len(cfg.env_state_names):
+                raise ValueError(
+                    f"forward: {cfg.env_state_key!r} has {env.shape[1]} entries, but the policy was fitted on "
+                    f"{len(cfg.env_state_names)} ({cfg.env_state_names})"
+                )
         slots = object_slots(cfg.env_state_names)
         dist = np.empty(len(target))
         for i, x in enumerate(target):
@@ -509,17 +553,34 @@ def _any_tensor(batch: dict[str, Any]) -> Tensor:
     raise ValueError(f"batch has no tensors (keys: {sorted(batch)})")
 
 
-def _batch_size(batch: dict[str, Any]) -> int:
-    """Rows of the batched observation tensors. LeRobot's AddBatchDimension step batches only
-    observation.state / environment_state / images, so a 1-D ``observation.ee_pose`` counts as one row."""
-    sizes = {
+def _observation_rows(batch: dict[str, Any]) -> set[int]:
+    """Leading sizes of the batched (>= 2-D) observation tensors."""
+    return {
         int(v.shape[0])
         for k, v in batch.items()
         if isinstance(v, Tensor) and v.ndim >= 2 and str(k).startswith("observation.")
     }
+
+
+def _batch_size(batch: dict[str, Any]) -> int:
+    """Rows of the batched observation tensors. LeRobot's AddBatchDimension step batches only
+    observation.state / environment_state / images, so a 1-D ``observation.ee_pose`` counts as one row."""
+    sizes = _observation_rows(batch)
     if len(sizes) > 1:
         raise ValueError(f"observation tensors disagree on the batch size: {sorted(sizes)}")
     return sizes.pop() if sizes else 1
+
+
+def _as_float64(value: Any, key: str) -> np.ndarray:
+    """A tensor or array as NumPy float64 (bfloat16 has no NumPy type; a 'meta' tensor holds no data)."""
+    if isinstance(value, Tensor):
+        if value.device.type == "meta":
+            raise ValueError(f"{key!r}: a tensor on the 'meta' device holds no values")
+        value = value.detach().cpu()
+        if value.dtype == torch.bfloat16:
+            value = value.to(torch.float32)
+        value = value.numpy()
+    return np.asarray(value)
 
 
 def _rows(batch: dict[str, Any], key: str, n: int) -> np.ndarray:
@@ -528,8 +589,7 @@ def _rows(batch: dict[str, Any], key: str, n: int) -> np.ndarray:
         raise ValueError(
             f"observation {key!r} is missing (keys: {sorted(k for k in batch if isinstance(k, str))})"
         )
-    value = batch[key]
-    raw = np.asarray(value.detach().cpu().numpy() if isinstance(value, Tensor) else value)
+    raw = _as_float64(batch[key], f"observation {key}")
     if raw.dtype.kind != "f" and raw.size:
         # an integer pose was already rounded to whole metres by whoever built it
         raise ValueError(f"observation {key!r}: expected floating-point values, got dtype {raw.dtype}")
@@ -537,6 +597,8 @@ def _rows(batch: dict[str, Any], key: str, n: int) -> np.ndarray:
         raise ValueError(f"observation {key!r}: expected shape (batch, width), got {tuple(raw.shape)}")
     if raw.ndim <= 1 and n != 1:
         raise ValueError(f"observation {key!r} has no batch dimension but the batch has {n} rows")
+    if raw.ndim == 2 and raw.shape[0] != n:  # reshape(n, -1) would silently merge or split rows
+        raise ValueError(f"observation {key!r} has {raw.shape[0]} rows but the batch has {n}")
     a = raw.astype(np.float64).reshape(n, -1)
     if not np.all(np.isfinite(a)):
         row, col = np.argwhere(~np.isfinite(a))[0]

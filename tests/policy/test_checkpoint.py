@@ -265,6 +265,21 @@ def test_an_unknown_processor_step_setting_names_the_file(ckpt):
         ForceMapPolicy.from_pretrained(ckpt)
 
 
+def test_a_normalising_processor_step_is_refused_by_file(ckpt):
+    """norm_map MEAN_STD in the saved pipeline gave a silent 23 mm error: the maps act on raw values."""
+    pipeline = json.loads((ckpt / "policy_preprocessor.json").read_text())
+    norm = next(
+        i for i, st in enumerate(pipeline["steps"]) if st.get("registry_name") == "normalizer_processor"
+    )
+    pipeline["steps"][norm]["config"]["norm_map"]["STATE"] = "MEAN_STD"
+    (ckpt / "policy_preprocessor.json").write_text(json.dumps(pipeline))
+    with pytest.raises(
+        ValueError,
+        match=rf"policy_preprocessor\.json: steps\[{norm}\]\.config\.norm_map must map every feature type",
+    ):
+        ForceMapPolicy.from_pretrained(ckpt)
+
+
 def test_a_non_finite_fps_or_dummy_is_refused(ckpt):
     """fps inf used to load and freeze the arm (clock at inf Hz); a NaN dummy made lerobot-train's loss NaN."""
     fitted_fps = json.loads((ckpt / "config.json").read_text())["fps"]
@@ -370,3 +385,14 @@ def test_a_missing_local_folder_is_named_as_such(tmp_path):
         match=r"outputs/polcy: config\.json is not in the local .* no local folder 'outputs/polcy'",
     ):
         ForceMapPolicy.from_pretrained("outputs/polcy")
+
+
+def test_a_config_edited_after_it_was_built_is_checked_at_load(ckpt):
+    import copy
+
+    from lerobot.configs import NormalizationMode
+
+    config = copy.deepcopy(ForceMapPolicy.from_pretrained(ckpt).config)
+    config.normalization_mapping["STATE"] = NormalizationMode.MEAN_STD  # no __post_init__ runs
+    with pytest.raises(ValueError, match="ForceMapConfig.normalization_mapping: must be IDENTITY"):
+        ForceMapPolicy.from_pretrained(ckpt, config=config)

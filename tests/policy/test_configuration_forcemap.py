@@ -67,6 +67,20 @@ def test_registered_and_lerobot_defaults():
         ({"segment_overrides": {1: {"time_scale": -0.05}}}, r"segment_overrides\[1\]\['time_scale'\]"),
         ({"segment_overrides": {0: {"stiffness": "stiff"}}}, r"segment_overrides\[0\]\['stiffness'\]"),
         ({"segment_overrides": {0: {"n_nodes": 2}}}, r"segment_overrides\[0\]\['n_nodes'\]"),
+        # nulls of a hand-edited config.json passed as "off", or failed naming no field
+        ({"reanchor": None}, "reanchor: must be true or false"),
+        ({"check_task": None}, "check_task: must be true or false"),
+        ({"pose_key": None}, "pose_key: must be a feature key"),
+        ({"anchor_radius": None}, "anchor_radius: must be finite and > 0 m"),
+        ({"anchor_radius": float("inf")}, "anchor_radius: must be finite and > 0 m"),
+        ({"static_tolerance": float("inf")}, "static_tolerance"),
+        ({"reanchor_tolerance": float("inf")}, "reanchor_tolerance: must be finite"),
+        ({"reanchor_blend_s": float("inf")}, "reanchor_blend_s: must be None or finite"),
+        ({"chunk_size": 10**7}, r"chunk_size: must be an integer in \[1, 360000\]"),
+        ({"control_fps": "x"}, "control_fps: must be None"),
+        ({"control_fps": 1e-300}, "control_fps: must be None"),  # the skill never advanced
+        # the maps act on raw values: a normalising processor fed them other units (2.5 m off)
+        ({"normalization_mapping": {"STATE": "MEAN_STD"}}, "normalization_mapping: must be IDENTITY"),
         (
             {
                 "n_segments": 2,

@@ -216,7 +216,7 @@ def test_control_fps_sets_the_rate_at_which_the_skill_advances(press_checkpoint)
     np.testing.assert_allclose(
         fast.predict_action_chunk(obs)[0, 1].numpy(), b[1, 0].numpy(), atol=1e-6
     )  # chunks follow the same clock
-    with pytest.raises(ValueError, match="control_fps: must be None .* or a positive rate"):
+    with pytest.raises(ValueError, match="control_fps: must be None .* or a rate in Hz, finite and >= 0.001"):
         ForceMapConfig(control_fps=0.0)
     assert "control_fps" in type(plain.config).__dataclass_fields__
 
@@ -278,3 +278,75 @@ def test_multi_episode_auto_segments_must_agree(press_dataset, tmp_path):
     a, b = next((i, j) for i in range(4) for j in range(4) if counts[i] != counts[j])
     with pytest.raises(ValueError, match="segment counts differ"):
         fit_and_save(press_dataset, tmp_path / "bad", episodes=[a, b])
+
+
+def test_forward_rows_and_reduction_are_checked(policy):
+    """An (4, 8) action with (2, ...) observations was reshaped to (2, 16) and read as two targets."""
+    batch = _scene(batch=2)
+    batch["action"] = torch.zeros(4, 8)
+    with pytest.raises(ValueError, match=r"forward: 'action' has 4 rows, the observations \[2\]"):
+        policy.forward(batch)
+    batch["action"] = torch.zeros(2, 2)
+    with pytest.raises(ValueError, match=r"needs \[x y z ...\] per row, got 2 entries"):
+        policy.forward(batch)
+    batch["action"] = torch.tensor([[0.5, 0.0, 0.04, 0.0, 1.0, 0.0, 0.0, 1.0]] * 2)
+    with pytest.raises(ValueError, match="reduction must be 'mean' or 'none', got 'sum'"):
+        policy.forward(batch, reduction="sum")  # silently returned the mean
+    wide = {**batch, "observation.environment_state": torch.zeros(2, 7)}
+    with pytest.raises(
+        ValueError, match=r"'observation.environment_state' has 7 entries, but the policy was fitted on 8"
+    ):
+        policy.forward(wide)
+    assert policy.forward({"action": batch["action"]}, reduction="none")[0].shape == (2,)  # actions alone
+
+
+def test_odd_tensors_are_read_or_refused_by_name(policy):
+    obs = _scene()
+    policy.reset()
+    ref = policy.select_action(obs)
+    policy.reset()
+    half = {k: v.to(torch.bfloat16) if k == "observation.force" else v for k, v in obs.items()}
+    assert torch.equal(policy.select_action(half), ref)  # bfloat16 has no NumPy type: read as float32
+    policy.reset()
+    meta = {**obs, "observation.ee_pose": torch.empty(1, 7, device="meta")}
+    with pytest.raises(ValueError, match="'observation observation.ee_pose': a tensor on the 'meta' device"):
+        policy.select_action(meta)
+    policy.reset()
+    with pytest.raises(ValueError, match="batch 'task' has 2 entries for a batch of 1"):
+        policy.select_action({**obs, "task": ["press the button", "press the button"]})
+
+
+def test_the_maps_stay_float64_and_load_state_dict_checks_them(press_checkpoint):
+    fitted = ForceMapPolicy.from_pretrained(press_checkpoint)
+    nodes = fitted.get_buffer("nodes").clone()
+    fitted.half()  # cast the maps to float16 silently (0.2 mm), and the saved file failed to load
+    assert fitted.get_buffer("nodes").dtype == torch.float64 and torch.equal(
+        fitted.get_buffer("nodes"), nodes
+    )
+    state = fitted.state_dict()
+    state["nodes"] = state["nodes"].clone()
+    state["nodes"][0, 0] = float("nan")
+    with pytest.raises(ValueError, match=r"^load_state_dict: tensor 'nodes' has 1 non-finite value"):
+        fitted.load_state_dict(state)  # NaN actions followed
+    assert torch.equal(fitted.get_buffer("nodes"), nodes)  # refused before anything was replaced
+
+
+def test_a_refused_observation_at_a_segment_start_still_reanchors_on_retry(press_checkpoint):
+    """The segment counter advanced before the observation was checked: a NaN at a segment start,
+    retried with a good observation, skipped that segment's re-anchoring for the rest of the episode."""
+    fitted = ForceMapPolicy.from_pretrained(press_checkpoint)
+    starts = np.cumsum([0.0, *fitted.skill.durations])[1:-1]
+    anchored = [s + 1 for s, t in enumerate(starts) if fitted.skill.segments[s + 1].anchor]
+    assert anchored
+    first = int(np.ceil(starts[anchored[0] - 1] * fitted.clock_hz))  # the step that starts the segment
+    moved = _scene(button=(0.52, 0.0, 0.027))
+    fitted.reset()
+    for _ in range(first):
+        fitted.select_action(_scene())
+    bad = _scene(button=(0.52, 0.0, 0.027))
+    bad["observation.environment_state"][0, 0] = float("nan")
+    with pytest.raises(ValueError, match="non-finite value"):
+        fitted.select_action(bad)
+    fitted.select_action(moved)
+    assert [e["segment"] for e in fitted.reanchor_log] == [anchored[0]]
+    assert fitted.reanchor_log[0]["shift"][0] == pytest.approx(0.02, abs=1e-6)
