@@ -89,6 +89,7 @@ def aggregate(cell: Cell, tune_demos: tuple[int, ...] = ()) -> dict[str, Any]:
     fits = [res["fit"] for res in cell.results if res.get("fit")]
     if fits:
         out["fit_s_median"] = float(np.median([f["fit_s"] for f in fits]))
+        out["fit_s_max"] = float(np.max([f["fit_s"] for f in fits]))
         out["n_segments"] = sorted({int(f["n_segments"]) for f in fits})
         out["force_limit_rows_mean"] = float(np.mean([f.get("n_force_limit_rows", 0) for f in fits]))
         out["capped_nodes_mean"] = float(
