@@ -25,6 +25,7 @@ task's metrics. Forces are sampled at physics rate after a first-order low-pass
 
 from __future__ import annotations
 
+import os
 import warnings
 from typing import Any, ClassVar
 
@@ -58,6 +59,13 @@ OBS_TYPES = ("state", "pixels_state")
 _ACCEPTED_RESET_OPTIONS = {"lerobot_new_rollout"}
 
 
+#: largest camera / render image side (pixels) accepted; the offscreen framebuffer is sized to it
+MAX_IMAGE_SIZE = 4096
+
+#: the process that first made a MuJoCo renderer: a process fork()ed from it inherits a GL state that hangs
+_GL_PID: int | None = None
+
+
 class ForceTaskEnv(gym.Env):
     """Gymnasium env for one :class:`ForceTask` on one robot (see the module docstring)."""
 
@@ -83,8 +91,11 @@ class ForceTaskEnv(gym.Env):
                 f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}"
             )
         for name, size in (("image_size", image_size), ("render_size", render_size)):
-            if int(size) != size or size < 1:
-                raise ValueError(f"{name} must be a positive number of pixels, got {size!r}")
+            # a bool passed as 1 pixel; 20000 failed at reset() in MuJoCo's offscreen framebuffer
+            if isinstance(size, bool) or int(size) != size or not 1 <= size <= MAX_IMAGE_SIZE:
+                raise ValueError(f"{name} must be a number of pixels in [1, {MAX_IMAGE_SIZE}], got {size!r}")
+        if not isinstance(randomize, (bool, np.bool_)):  # "no" is truthy: it randomised
+            raise ValueError(f"randomize must be True or False, got {randomize!r}")
 
         def numeric(x: object) -> bool:
             return isinstance(x, (int, float, np.number)) and not isinstance(x, bool)
@@ -465,6 +476,11 @@ class ForceTaskEnv(gym.Env):
             "clip_distance": clip.clipped_distance,
             "clip_angle": clip.clipped_angle,
             "n_clipped_steps": self._n_clipped,
+            # TCP to its (interpolated) target after the step, m: F/K in contact by design; in free space
+            # the arm's own error (the Gen3's posture springs, a target beyond reach), which no clip flags
+            "tracking_error": float(
+                np.linalg.norm(self.data.site_xpos[self.index.tcp_site] - self._mocap_pos[self.index.mocap])
+            ),
             "elapsed_s": self._steps * self.control_dt,
         }
         if self._n_fingers:
@@ -475,10 +491,20 @@ class ForceTaskEnv(gym.Env):
 
     # ---- rendering ------------------------------------------------------------------------------------------
     def _render(self, size: int) -> np.ndarray:
+        global _GL_PID
         renderer = self._renderers.get(size)
         if renderer is None:  # created lazily: AsyncVectorEnv workers each make their own GL context
+            pid = os.getpid()
+            if _GL_PID is not None and _GL_PID != pid:
+                raise RuntimeError(
+                    "this process was forked from one that had already rendered with MuJoCo; a GL context does "
+                    "not survive fork() and rendering here would hang: create the vector env with "
+                    "context='forkserver' or 'spawn' (gymnasium.vector.AsyncVectorEnv(..., context='forkserver'), "
+                    "as lerobot-eval does), or render in the parent only after forking"
+                )
             renderer = mujoco.Renderer(self.model, size, size)
             self._renderers[size] = renderer
+            _GL_PID = pid
         renderer.update_scene(self.data, camera=CAMERA)
         flags = renderer.scene.flags
         flags[mujoco.mjtRndFlag.mjRND_SHADOW] = 0

@@ -69,9 +69,11 @@ def test_bad_actions_and_options_raise():
     with pytest.raises(ValueError, match="unknown options"):
         env.reset(seed=0, options={"bogus": 1})
     env.reset(seed=0, options={"lerobot_new_rollout": True})  # LeRobot's rollout option is accepted
-    for size in (0, -5, 2.5):
-        with pytest.raises(ValueError, match="image_size must be a positive number of pixels"):
+    for size in (0, -5, 2.5, True, 20000):  # True gave 1-pixel images, 20000 a MuJoCo error at reset
+        with pytest.raises(ValueError, match=r"image_size must be a number of pixels in \[1, 4096\]"):
             E.make("press", obs_type="pixels_state", image_size=size)
+    with pytest.raises(ValueError, match="randomize must be True or False, got 'no'"):
+        E.make("press", randomize="no")  # a truthy string: it randomised
     for cutoff in (float("nan"), 0.0, -1.0, float("inf"), True, "10"):
         # NaN used to pass: NaN forces, no protective stop, max_contact_force 0
         with pytest.raises(ValueError, match="force_cutoff_hz must be a positive finite frequency"):
@@ -145,4 +147,49 @@ def test_physics_options_are_the_specs(task):
     assert opt.timestep == 0.002
     assert opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     assert opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
+    env.close()
+
+
+def test_free_space_tracking_error_is_reported():
+    """The TCP-to-target distance is in info: the UR5e tracks free-space targets exactly; the Gen3's posture
+    springs pull its TCP off targets far from home (measured 21 mm at (0.7, -0.3, 0.05)), which no clip flagged."""
+    for env_id, target, bound in (
+        ("lerobot_forcemap/Press-v0", (0.7, -0.3, 0.05), 1e-4),
+        ("lerobot_forcemap/GraspPush-v0", (0.42, 0.0, 0.25), 1e-3),
+    ):
+        env = gym.make(env_id, randomize=False)
+        obs, _ = env.reset(seed=0)
+        action = np.r_[target, obs["ee_pose"][3:], 0.0]
+        for _ in range(100):
+            obs, _, _, _, info = env.step(action)
+        assert 0.0 <= info["tracking_error"] < bound, (env_id, info["tracking_error"])
+        assert not info["target_clipped"]
+        env.close()
+
+
+def _render_in_forked_child(out):
+    env = gym.make("lerobot_forcemap/Press-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    try:
+        env.render()
+        out.put("rendered")
+    except RuntimeError as err:
+        out.put(str(err))
+
+
+def test_rendering_in_a_process_forked_after_rendering_is_refused_not_hung():
+    """fork() after the parent rendered left the child's GL context dead: AsyncVectorEnv(context='fork')
+    hung forever in render()."""
+    import multiprocessing as mp
+
+    env = gym.make("lerobot_forcemap/Press-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    assert env.render().shape[2] == 3  # the parent renders first
+    ctx = mp.get_context("fork")
+    out = ctx.Queue()
+    child = ctx.Process(target=_render_in_forked_child, args=(out,))
+    child.start()
+    child.join(timeout=120)
+    assert not child.is_alive(), "the forked child hung"
+    assert "forked from one that had already rendered" in out.get(timeout=5)
     env.close()
