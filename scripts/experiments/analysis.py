@@ -402,6 +402,13 @@ def learned_section(doc) -> list[str]:
             "learned policies see the force only as an input (see their rows' `force_inputs`). Against ours (tuned), "
             "within these CPU step budgets: " + "; ".join(_learned_vs_ours(doc, r) for r in done) + "."
         )
+        failing = [f"{r['task']}/{r['method']}" for r in done if r["success_rate"] < 0.5]
+        if failing:
+            out.append(
+                f"- A lower force at a success rate below 50 % ({', '.join(failing)}) mostly measures episodes that "
+                "did not do the task (a wiper that never reaches the board feels nothing); the force comparison "
+                "means something where success is comparable."
+            )
     out += _lerobot_eval_agreement(done)
     if pending:
         out.append(f"- Pending (not trained yet when this report was built): {', '.join(pending)}.")

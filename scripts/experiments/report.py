@@ -345,8 +345,10 @@ def _change_interval(r: dict[str, Any], key: str) -> tuple[float, float, float]:
 def targets(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """The paper's targets, checked on the main rows. ``met``: the point estimates (mean Δ over the
     demonstrations, success rate) reach the target, as the paper's single reproduction did;
-    ``met_with_95_interval``: the whole 95 % interval does (Δ: t over the demonstrations; success: the
-    Wilson interval's lower bound), i.e. the target is met beyond the demonstration-to-demonstration spread."""
+    ``force_met_with_95_interval``: the force part holds over the whole 95 % t-interval of Δ over the
+    demonstrations (beyond their spread; None where no such interval exists); ``success_lower_95``: the
+    Wilson lower bound of the success rate (with 10 units even 100 % gives 0.72, so no success target
+    can be shown beyond the spread at this n)."""
     out = []
     for method in ("ours", "ours_limit", "limit_alone", "ours_default"):
         r = _find(records, experiment="table2", task="press", method=method)
@@ -361,7 +363,8 @@ def targets(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
                     "value": f"max {dmax:+.1f}% [{max_lo:+.1f}, {max_hi:+.1f}], mean {dmean:+.1f}% "
                     f"[{mean_lo:+.1f}, {mean_hi:+.1f}], success {100 * r['success_rate']:.1f}%",
                     "met": bool(dmax <= -84.0 and dmean <= -67.0 and r["success_rate"] >= 0.95),
-                    "met_with_95_interval": bool(max_hi <= -84.0 and mean_hi <= -67.0 and lo_success >= 0.95),
+                    "force_met_with_95_interval": bool(max_hi <= -84.0 and mean_hi <= -67.0),
+                    "success_lower_95": lo_success,
                 }
             )
         r = _find(records, experiment="table2", task="erase", method=method)
@@ -376,7 +379,8 @@ def targets(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
                     "value": f"mean {dmean:+.1f}% [{mean_lo:+.1f}, {mean_hi:+.1f}], coverage {100 * cov:.1f}% "
                     f"(mean), success {100 * r['success_rate']:.1f}%",
                     "met": bool(dmean <= -32.0 and cov >= 0.9 and r["success_rate"] >= 0.9),
-                    "met_with_95_interval": bool(mean_hi <= -32.0 and cov >= 0.9 and lo_success >= 0.9),
+                    "force_met_with_95_interval": bool(mean_hi <= -32.0),
+                    "success_lower_95": lo_success,
                 }
             )
     hyb = _find(records, experiment="peg", method="hybrid")
@@ -392,7 +396,7 @@ def targets(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "met": bool(below.all()),
                 # no interval with the demonstration as the unit is kept per axis (one over episodes
                 # would count 200 episodes of 10 policies as independent): not judged
-                "met_with_95_interval": None,
+                "force_met_with_95_interval": None,
             }
         )
     for r in records:
@@ -404,7 +408,8 @@ def targets(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
                     "method": "ours",
                     "value": f"{100 * r['success_rate']:.0f}% of {r['n']} [{100 * lo:.0f}, {100 * hi:.0f}]",
                     "met": bool(r["success_rate"] >= 0.9),
-                    "met_with_95_interval": bool(lo >= 0.9),
+                    "force_met_with_95_interval": None,
+                    "success_lower_95": float(lo),
                 }
             )
     return out
@@ -674,16 +679,20 @@ def targets_md(checked: list[dict[str, Any]]) -> list[str]:
     """The targets table of :func:`targets`' rows."""
     L = [
         "Brackets: 95 % intervals (Δ: t over the demonstrations; success: Wilson). *met*: the point "
-        "estimates reach the target, as the paper's single reproduction did; *beyond the spread*: the whole "
-        "interval does (not judged for peg: its per-axis figures have no interval over demonstrations).",
+        "estimates reach the target, as the paper's single reproduction did. *force beyond the spread*: the "
+        "force part holds over the whole Δ interval (not judged for peg and grasping: no interval over "
+        "demonstrations). *success lower bound*: with the 10 demonstrations as the units even 100 % success "
+        "has a Wilson lower bound of 72 %, so no success target can be shown beyond the spread at this n.",
         "",
-        "| target | method | ours | met | beyond the spread |",
-        "|---|---|---|---|---|",
+        "| target | method | ours | met | force beyond the spread | success lower bound |",
+        "|---|---|---|---|---|---|",
     ]
     for t in checked:
         met = "yes" if t["met"] else "**no**"
-        beyond = {True: "yes", False: "no", None: "–"}[t.get("met_with_95_interval")]
-        L.append(f"| {t['target']} | {t['method']} | {t['value']} | {met} | {beyond} |")
+        beyond = {True: "yes", False: "no", None: "–"}[t.get("force_met_with_95_interval")]
+        lower = t.get("success_lower_95")
+        lower = "–" if lower is None else f"{100 * lower:.0f}%"
+        L.append(f"| {t['target']} | {t['method']} | {t['value']} | {met} | {beyond} | {lower} |")
     return L
 
 
