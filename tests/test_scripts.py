@@ -27,6 +27,7 @@ RUNS = {
     ),
     "bench_segmentation": (["--runs", "20"], "target: default segment_streams", "ur5e/three_button_press.h5"),
     "bench_envs": (["--episodes", "1", "--no-render"], "| grasp_flip |", None),
+    "env_tracking_error": (["--steps", "20"], "| (0.7, -0.3, 0.05) |", None),
     "bench_elmap": (
         ["--repeats", "1", "--baseline-repeats", "1", "--quick"],
         "| fold | 2730 | 100 | yes |",
@@ -81,6 +82,7 @@ BAD_FLAGS = [
     ("bench_elmap", ["--repeats", "0"], "--repeats must be >= 1"),
     ("bench_elmap", ["--baseline-repeats", "0"], "--baseline-repeats must be >= 1"),
     ("bench_envs", ["--episodes", "0"], "--episodes must be >= 1"),
+    ("env_tracking_error", ["--steps", "0"], "--steps must be >= 1"),
     ("bench_envs", ["--cores", "-1"], "--cores must be 0"),
     ("bench_policy_fit", ["--runs", "0"], "--runs must be >= 1"),
     ("bench_policy_fit", ["--dataset", "{tmp}"], "not a LeRobot dataset"),
