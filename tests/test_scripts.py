@@ -27,7 +27,7 @@ RUNS = {
     ),
     "bench_segmentation": (["--runs", "20"], "target: default segment_streams", "ur5e/three_button_press.h5"),
     "bench_envs": (["--episodes", "1", "--no-render"], "| grasp_flip |", None),
-    "env_tracking_error": (["--steps", "20"], "| (0.7, -0.3, 0.05) |", None),
+    "env_tracking_error": (["--steps", "80"], "| (0.7, -0.3, 0.05) |", None),
     "bench_elmap": (
         ["--repeats", "1", "--baseline-repeats", "1", "--quick"],
         "| fold | 2730 | 100 | yes |",
