@@ -143,7 +143,9 @@ PROCESSOR_FILES = ("policy_preprocessor.json", "policy_postprocessor.json")
 STATS_STEPS = ("normalizer_processor", "unnormalizer_processor")
 
 
-def check_processor_files(folder: str | Path, *, required: bool, warn_missing: bool = True) -> None:
+def check_processor_files(
+    folder: str | Path, *, required: bool, warn_missing: bool = True, raw_values: bool = False
+) -> None:
     """Raise ``ValueError`` naming the file unless the processor pipelines in ``folder`` are readable.
 
     LeRobot reports a truncated state file as a bare ``SafetensorError`` and a broken pipeline JSON as a
@@ -154,6 +156,8 @@ def check_processor_files(folder: str | Path, *, required: bool, warn_missing: b
     ``required``: whether the pipelines must be there (``lerobot-eval``/``forcemap eval``/``push`` load
     them; ``ForceMapPolicy.from_pretrained`` alone does not). ``warn_missing``: warn about a missing
     optional pipeline (off where :func:`fetch_hub_checkpoint` already said why it is missing).
+    ``raw_values``: the policy acts on raw dataset values (forcemap), so every normaliser step must map
+    each feature type to IDENTITY (a learned policy's checkpoint normalises, and is checked without it).
     """
     from safetensors import SafetensorError, safe_open
 
@@ -176,7 +180,7 @@ def check_processor_files(folder: str | Path, *, required: bool, warn_missing: b
         for i, step in enumerate(steps):
             _check_step_config(_check_step_class(step, f"{path}: steps[{i}]"), step, f"{path}: steps[{i}]")
             norm_map = step.get("config", {}).get("norm_map") or {}
-            if isinstance(norm_map, dict) and any(m != "IDENTITY" for m in norm_map.values()):
+            if raw_values and isinstance(norm_map, dict) and any(m != "IDENTITY" for m in norm_map.values()):
                 # the maps act on raw dataset values: a normalising step would feed them other units
                 raise ValueError(
                     f"{path}: steps[{i}].config.norm_map must map every feature type to 'IDENTITY' (the "

@@ -231,7 +231,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         # check the weights' header against them first, so a tampered count is an error, not a huge allocation
         check_safetensors_file(path / SAFETENSORS_SINGLE_FILE, config)
         # lerobot-eval reads these next, naming no file (a missing one from the Hub was reported by the fetch)
-        check_processor_files(path, required=False, warn_missing=not from_hub)
+        check_processor_files(path, required=False, warn_missing=not from_hub, raw_values=True)
         return super().from_pretrained(pretrained_name_or_path, config=config, **kwargs)
 
     @classmethod
