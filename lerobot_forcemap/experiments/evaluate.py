@@ -494,7 +494,8 @@ def _read_table(root: Path) -> tuple[dict[str, np.ndarray], list[str]]:
 
 
 def summarize(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
-    """n, success rate, protective stops, and mean/std of the force figures over episodes."""
+    """n, success rate, protective stops, and mean/std of the force figures over episodes (the sample
+    std, ddof 1, as the experiments report gives; 0 for one episode)."""
     if not records:
         return {"n": 0}
     out: dict[str, Any] = {
@@ -507,7 +508,7 @@ def summarize(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
         if len(v):
             out[k] = {
                 "mean": to_json(v.mean(axis=0)),
-                "std": to_json(v.std(axis=0)),
+                "std": to_json(v.std(axis=0, ddof=1) if len(v) > 1 else np.zeros_like(v[0])),
                 "max": to_json(v.max(axis=0)),
             }
     # the env clips targets outside its workspace / speed limit and says so per step in info; here the

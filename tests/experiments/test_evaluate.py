@@ -99,7 +99,11 @@ def test_summaries_and_change():
     ]
     s = summarize(recs)
     assert s["n"] == 2 and s["success_rate"] == 0.5 and s["protective_stops"] == 1
-    assert s["max_contact_force"]["mean"] == 20.0 and s["max_contact_force"]["std"] == 10.0
+    # the sample std (ddof 1), as results/experiments.md and the README give it
+    assert s["max_contact_force"]["mean"] == 20.0 and s["max_contact_force"]["std"] == pytest.approx(
+        10.0 * 2**0.5
+    )
+    assert summarize(recs[:1])["max_contact_force"]["std"] == 0.0
     assert s["max_contact_force_xyz"]["mean"] == [2.0, 1.0, 20.0]
     c = compare(summarize(recs[:1]), s)
     assert c["max_contact_force_change_pct"] == pytest.approx(-50.0)
