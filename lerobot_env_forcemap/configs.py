@@ -50,6 +50,9 @@ def task_features(task: str, *, obs_type: str = "state", image_size: int = 128, 
 
     task_class = _task_class(task)
     robot_spec = get_robot(robot or task_class.robot_name)
+    # the task's own robot checks (peg_in_hole needs the parallel gripper), when the config is built: the
+    # features of an impossible pairing used to be made and the env refused only in make_env
+    task_class(robot_spec, randomize=False)
     sizes = {
         layout.ENV_AGENT_POS: len(robot_spec.joint_names) + 1,
         layout.ENV_EE_POSE: layout.EE_POSE_DIM,

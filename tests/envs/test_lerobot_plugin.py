@@ -56,6 +56,9 @@ def test_env_config_fields_are_checked_when_the_config_is_made():
     with pytest.raises(ValueError, match=r"object: grasp_push has no object 'pear'; choose one of \['book'"):
         make_env_config("forcemap_grasp_push", object="pear")
     assert make_env_config("forcemap_grasp_flip", object="banana").gym_kwargs["object"] == "banana"
+    # the Gen3's three-finger hand cannot hold the disc: said when the config is made, not in make_env
+    with pytest.raises(ValueError, match="peg_in_hole: robot 'gen3' has the three_finger_gripper"):
+        make_env_config("forcemap_peg_in_hole", robot="gen3")
 
 
 def test_make_env_and_preprocess_observation_deliver_force():
