@@ -178,18 +178,12 @@ def _check_stream_settings(
         unknown = sorted(set(given or {}) - set(available))
         if unknown:
             raise ValueError(f"{flag}: unknown stream(s) {unknown}; this dataset has {sorted(available)}")
-    for name in available:
-        try:  # Stream's own checks (weight finite >= 0 and not huge, threshold in (0, 1])
-            Stream(
-                name,
-                np.zeros(2),
-                np.arange(2.0),
-                weight=(weights or {}).get(name, 1.0),
-                threshold=(thresholds or {}).get(name, STREAM_THRESHOLDS[name]),
-            )
-        except ValueError as err:
-            flag = "--thresholds" if "threshold" in str(err) else "--weights"
-            raise ValueError(f"{flag}: {err}") from None
+    for flag, given, field in (("--weights", weights, "weight"), ("--thresholds", thresholds, "threshold")):
+        for name, value in (given or {}).items():
+            try:  # Stream's own checks (weight finite >= 0 and not huge, threshold in (0, 1])
+                Stream(name, np.zeros(2), np.arange(2.0), **{field: value})
+            except ValueError as err:
+                raise ValueError(f"{flag}: {err}") from None
     if not any((weights or {}).get(name, 1.0) > 0 for name in available):
         raise ValueError(
             f"--weights: every stream has weight 0 ({sorted(available)}); one needs a weight > 0"

@@ -69,12 +69,14 @@ def make_config(episodes: Sequence[int] | None = None, overrides: Sequence[str] 
         return draccus.parse(ForceMapConfig, args=args)
     except draccus.utils.DraccusException as err:
         cause = err.__cause__ or err.__context__
-        # our check names "ForceMapConfig.<field>:", draccus' type errors "`<field>`:"
-        named = re.match(r"ForceMapConfig\.(\w+):", str(cause)) or re.match(r"`(\w+)`:", str(err))
-        detail = str(cause) if named and named.re.pattern.startswith("ForceMap") else config_error_detail(err)
+        # our check names "ForceMapConfig.<field>:" (its text is the whole story), draccus' type errors "`<field>`:"
+        ours = re.match(r"ForceMapConfig\.(\w+):", str(cause))
+        named = ours or re.match(r"`(\w+)`:", str(err))
+        detail = str(cause) if ours else config_error_detail(err)
         if named is None:
-            raise ValueError(f"--set/--episodes: {detail}") from err
-        flag = "--episodes" if named[1] == "episodes" and episodes is not None else "--set"
+            flag = "--set/--episodes"
+        else:
+            flag = "--episodes" if named[1] == "episodes" and episodes is not None else "--set"
         raise ValueError(f"{flag}: {detail}") from err
     finally:
         config_log.setLevel(level)

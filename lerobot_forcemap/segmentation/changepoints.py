@@ -16,6 +16,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import find_peaks
 
+from .config import is_int
+
 
 def sample_changepoints(
     pmf: np.ndarray, rng: np.random.Generator, n_samples: int, n_pass: int, window: int
@@ -70,5 +72,5 @@ def enforce_min_segment_length(
 def _check_counts(**counts: object) -> None:
     """ValueError naming the first of ``counts`` that is not an int >= 1."""
     for name, value in counts.items():
-        if not (isinstance(value, int | np.integer) and not isinstance(value, bool) and value >= 1):
+        if not (is_int(value) and value >= 1):
             raise ValueError(f"{name} must be an int >= 1, got {value!r}")

@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from .config import MIN_SIGMA, Mode
+from .config import MIN_SIGMA, Mode, is_int
 
 GAUSS_RADIUS_SIGMAS = 8.0  # Gaussians are cut at ±8σ: the dropped tail is below 1.3e-14 of the peak
 
@@ -39,7 +39,7 @@ def stream_pmf(keypoints: np.ndarray, n_frames: int, sigma: float, floor: float)
     Vectorised over keypoints and frames: every keypoint's Gaussian (cut at ±8σ, and at T frames: no
     frame lies further from a keypoint) is scattered into the frame axis with one np.bincount.
     """
-    if not (isinstance(n_frames, int | np.integer) and n_frames >= 1):
+    if not (is_int(n_frames) and n_frames >= 1):
         raise ValueError(f"n_frames must be an int >= 1, got {n_frames!r}")
     if not (np.isfinite(sigma) and sigma >= MIN_SIGMA):
         raise ValueError(f"sigma must be >= {MIN_SIGMA:g} samples, got {sigma!r}")

@@ -36,6 +36,11 @@ def _first_bad_index(mask: np.ndarray) -> tuple[int, ...]:
     return tuple(int(i) for i in np.unravel_index(flat, mask.shape))
 
 
+def is_int(x: object) -> bool:
+    """An int (Python or NumPy), not a bool."""
+    return isinstance(x, int | np.integer) and not isinstance(x, bool)
+
+
 def _real(value: object) -> float:
     """``float(value)``, or NaN for what is not a real number (so the caller's check names the field)."""
     if isinstance(value, (bool, str, bytes)):  # float("2") would pass, then fail as a str downstream
@@ -225,9 +230,6 @@ class SegmentationConfig:
         def need(ok: bool, what: str) -> None:
             if not ok:
                 raise ValueError(f"SegmentationConfig: {what}")
-
-        def is_int(x: object) -> bool:
-            return isinstance(x, int | np.integer) and not isinstance(x, bool)
 
         need(is_int(self.window) and self.window >= 5, f"window must be an int >= 5, got {self.window!r}")
         need(is_int(self.min_run) and self.min_run >= 1, f"min_run must be an int >= 1, got {self.min_run!r}")

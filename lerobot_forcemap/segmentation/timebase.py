@@ -33,20 +33,34 @@ class UnevenTimeWarning(UserWarning):
 GAP_RATIO = 3.0
 
 
-def warn_uneven_spacing(name: str, times: np.ndarray, frames: np.ndarray | None = None) -> None:
-    """A `UnevenTimeWarning` when a time step exceeds `GAP_RATIO` times the median one.
+def _odd_steps(
+    times: np.ndarray, frames: np.ndarray | None, ratio: float, longer: bool
+) -> tuple[int, float, float, int] | None:
+    """Time steps longer (or shorter) than ``ratio`` times the median: (how many, the median, the most
+    extreme step, the original frame after it), or None when there are none.
 
     times (n,) increasing; frames (n,) their original frame indices (None: 0..n-1)."""
     dt = np.diff(times)
     median = float(np.median(dt))
-    gaps = np.flatnonzero(dt > GAP_RATIO * median)
-    if not gaps.size:
-        return
-    worst = int(gaps[np.argmax(dt[gaps])])
+    odd = np.flatnonzero(dt > ratio * median if longer else dt < ratio * median)
+    if not odd.size:
+        return None
+    worst = int(odd[np.argmax(dt[odd]) if longer else np.argmin(dt[odd])])
     frame = int(worst + 1 if frames is None else frames[worst + 1])
+    return int(odd.size), median, float(dt[worst]), frame
+
+
+def warn_uneven_spacing(name: str, times: np.ndarray, frames: np.ndarray | None = None) -> None:
+    """A `UnevenTimeWarning` when a time step exceeds `GAP_RATIO` times the median one.
+
+    times (n,) increasing; frames (n,) their original frame indices (None: 0..n-1)."""
+    found = _odd_steps(times, frames, GAP_RATIO, longer=True)
+    if found is None:
+        return
+    count, median, step, frame = found
     warnings.warn(
-        f"stream {name!r}: {gaps.size} time step(s) longer than {GAP_RATIO:g}x the median"
-        f" ({median * 1e3:.3g} ms), the longest {dt[worst] / median:.1f}x before frame {frame}; the"
+        f"stream {name!r}: {count} time step(s) longer than {GAP_RATIO:g}x the median"
+        f" ({median * 1e3:.3g} ms), the longest {step / median:.1f}x before frame {frame}; the"
         " Savitzky-Golay jerk (derivative='savgol') takes samples as evenly spaced, so the jerk across a"
         " gap is wrong: resample the stream onto an even time base, or use derivative='difference'",
         UnevenTimeWarning,
@@ -63,16 +77,13 @@ def warn_short_steps(name: str, times: np.ndarray, frames: np.ndarray | None = N
     """A `UnevenTimeWarning` when a (non-zero) time step is below `SHORT_STEP_RATIO` times the median.
 
     times (n,) increasing; frames (n,) their original frame indices (None: 0..n-1)."""
-    dt = np.diff(times)
-    median = float(np.median(dt))
-    short = np.flatnonzero(dt < SHORT_STEP_RATIO * median)
-    if not short.size:
+    found = _odd_steps(times, frames, SHORT_STEP_RATIO, longer=False)
+    if found is None:
         return
-    worst = int(short[np.argmin(dt[short])])
-    frame = int(worst + 1 if frames is None else frames[worst + 1])
+    count, median, step, frame = found
     warnings.warn(
-        f"stream {name!r}: {short.size} time step(s) shorter than {SHORT_STEP_RATIO:g}x the median"
-        f" ({median * 1e3:.3g} ms), the shortest {dt[worst]:.3g} s before frame {frame}; a near-duplicate"
+        f"stream {name!r}: {count} time step(s) shorter than {SHORT_STEP_RATIO:g}x the median"
+        f" ({median * 1e3:.3g} ms), the shortest {step:.3g} s before frame {frame}; a near-duplicate"
         " timestamp makes the jerk there spike and can move the keypoints: fix the recording's clock, or"
         " give both samples the same time (merged as a duplicate)",
         UnevenTimeWarning,
