@@ -167,7 +167,7 @@ class ForceMapPolicy(PreTrainedPolicy):
     def load_state_dict(self, state_dict, strict: bool = True, assign: bool = False):  # noqa: D102
         if self.config.is_fitted and all(name in state_dict for name in SKILL_TENSORS):
             # the checks from_pretrained runs on the weights file, before they replace the buffers
-            arrays = {name: _as_float64(state_dict[name], name) for name in SKILL_TENSORS}
+            arrays = {name: _to_numpy(state_dict[name], name) for name in SKILL_TENSORS}
             # named after the weights file when from_pretrained loads one (safetensors calls this method)
             check_skill_values(arrays, self.config, getattr(self, "_loading_from", None) or "load_state_dict")
         result = super().load_state_dict(state_dict, strict=strict, assign=assign)
@@ -281,12 +281,7 @@ class ForceMapPolicy(PreTrainedPolicy):
             )
         env = None
         if cfg.reanchor and any(skill.anchors):
-            env = _rows(batch, cfg.env_state_key, n)
-            if env.shape[1] != len(cfg.env_state_names):
-                raise ValueError(
-                    f"observation {cfg.env_state_key!r} has {env.shape[1]} entries, but the policy was fitted on "
-                    f"{len(cfg.env_state_names)} ({cfg.env_state_names})"
-                )
+            env = self._env_state_rows(batch, n)
         slots = object_slots(cfg.env_state_names)
         online = cfg.reanchor and cfg.reanchor_online
         self._observed_as = skill.demo_object_poses()
@@ -316,8 +311,8 @@ class ForceMapPolicy(PreTrainedPolicy):
         fills it from the env's task_description)."""
         cfg = self.config
         asked = batch.get("task")
-        if asked is not None and not isinstance(asked, str) and len(asked) != _batch_size(batch):
-            raise ValueError(f"batch 'task' has {len(asked)} entries for a batch of {_batch_size(batch)}")
+        if asked is not None and not isinstance(asked, str) and len(asked) != (n := _batch_size(batch)):
+            raise ValueError(f"batch 'task' has {len(asked)} entries for a batch of {n}")
         if not cfg.dataset_tasks or asked is None:
             return
         unknown = sorted(
@@ -371,12 +366,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         if not started:
             self._next_segment = current + 1
             return
-        env = _rows(batch, cfg.env_state_key, len(placed))
-        if env.shape[1] != len(cfg.env_state_names):
-            raise ValueError(
-                f"observation {cfg.env_state_key!r} has {env.shape[1]} entries, but the policy was fitted on "
-                f"{len(cfg.env_state_names)} ({cfg.env_state_names})"
-            )
+        env = self._env_state_rows(batch, len(placed))
         slots = object_slots(cfg.env_state_names)
         poses = [object_poses(env[i], slots) for i in range(len(placed))]
         # only now, with the observation accepted: a refused one (NaN, wrong width) retried with a good
@@ -406,6 +396,17 @@ class ForceMapPolicy(PreTrainedPolicy):
                 self.reanchor_log.append(
                     {"segment": s, "row": i, "t": float(t), "shift": [float(v) for v in shift]}
                 )
+
+    def _env_state_rows(self, batch: dict[str, Any], n: int) -> np.ndarray:
+        """The object poses of the batch, (n, width), checked against the names the policy was fitted on."""
+        cfg = self.config
+        env = _rows(batch, cfg.env_state_key, n)
+        if env.shape[1] != len(cfg.env_state_names):
+            raise ValueError(
+                f"observation {cfg.env_state_key!r} has {env.shape[1]} entries, but the policy was fitted on "
+                f"{len(cfg.env_state_names)} ({cfg.env_state_names})"
+            )
+        return env
 
     def _apply(self, fn, recurse: bool = True):
         """``.to(device)`` moves the maps; a dtype cast (``.half()``, ``.float()``) is undone for them:
@@ -466,12 +467,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         target = rows[:, :3]
         env = None
         if any(skill.anchors) and cfg.env_state_key in batch:
-            env = _rows(batch, cfg.env_state_key, len(target))
-            if env.shape[1] != len(cfg.env_state_names):
-                raise ValueError(
-                    f"forward: {cfg.env_state_key!r} has {env.shape[1]} entries, but the policy was fitted on "
-                    f"{len(cfg.env_state_names)} ({cfg.env_state_names})"
-                )
+            env = self._env_state_rows(batch, len(target))
         slots = object_slots(cfg.env_state_names)
         dist = np.empty(len(target))
         for i, x in enumerate(target):
@@ -571,8 +567,8 @@ def _batch_size(batch: dict[str, Any]) -> int:
     return sizes.pop() if sizes else 1
 
 
-def _as_float64(value: Any, key: str) -> np.ndarray:
-    """A tensor or array as NumPy float64 (bfloat16 has no NumPy type; a 'meta' tensor holds no data)."""
+def _to_numpy(value: Any, key: str) -> np.ndarray:
+    """A tensor or array as a NumPy array (bfloat16, which NumPy lacks, as float32; a 'meta' tensor holds no data)."""
     if isinstance(value, Tensor):
         if value.device.type == "meta":
             raise ValueError(f"{key!r}: a tensor on the 'meta' device holds no values")
@@ -589,7 +585,7 @@ def _rows(batch: dict[str, Any], key: str, n: int) -> np.ndarray:
         raise ValueError(
             f"observation {key!r} is missing (keys: {sorted(k for k in batch if isinstance(k, str))})"
         )
-    raw = _as_float64(batch[key], f"observation {key}")
+    raw = _to_numpy(batch[key], f"observation {key}")
     if raw.dtype.kind != "f" and raw.size:
         # an integer pose was already rounded to whole metres by whoever built it
         raise ValueError(f"observation {key!r}: expected floating-point values, got dtype {raw.dtype}")
