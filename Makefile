@@ -34,22 +34,22 @@ test-fast: venv
 	if [ $$rc -eq 5 ]; then echo "error: pytest collected no tests" >&2; exit 1; fi; exit $$rc
 
 demo: venv
-	HF_HUB_OFFLINE=1 $(PY) -m lerobot_forcemap.experiments.demo --out outputs/demo
+	HF_HUB_OFFLINE=1 $(PY) -m lerobot_forcemap.cli.demo --out outputs/demo
 
 bench: venv
-	$(PY) scripts/bench_elmap.py
-	$(PY) scripts/bench_clarabel_polish.py
-	$(PY) scripts/bench_segmentation.py
-	$(PY) scripts/bench_envs.py
-	$(PY) scripts/bench_policy_fit.py
+	$(PY) benchmarks/bench_elmap.py
+	$(PY) benchmarks/bench_clarabel_polish.py
+	$(PY) benchmarks/bench_segmentation.py
+	$(PY) benchmarks/bench_envs.py
+	$(PY) benchmarks/bench_policy_fit.py
 
 # Paper experiments (8-16 min on 2 cores from an empty cache; cached re-runs only re-aggregate).
 experiments: venv
-	HF_HUB_OFFLINE=1 $(PY) scripts/experiments/run_all.py
+	HF_HUB_OFFLINE=1 $(PY) -m experiments.paper
 
 # ACT and Diffusion trained with lerobot-train on CPU (1-1.5 h); `make experiments` merges results/learned/.
 learned-baselines: venv
-	HF_HUB_OFFLINE=1 $(PY) scripts/experiments/learned_baselines.py --out results/learned
+	HF_HUB_OFFLINE=1 $(PY) -m experiments.learned --out results/learned
 
 # Regenerate the shipped datasets of scripted demonstrations (10 episodes each, seed 0).
 DATASET_TASKS ?= press erase peg_in_hole grasp_push grasp_flip
@@ -60,10 +60,10 @@ datasets: venv
 
 # The GBTI segmentation experiment (needs ../shared/data or FORCEMAP_SHARED_DATA).
 segmentation-experiment: venv
-	$(PY) scripts/gbti_segmentation.py
+	$(PY) -m experiments.gbti_segmentation
 
 lint: venv
-	$(PY) -m ruff check lerobot_forcemap lerobot_policy_forcemap lerobot_env_forcemap tests scripts
+	$(PY) -m ruff check lerobot_forcemap lerobot_policy_forcemap lerobot_env_forcemap experiments benchmarks tests
 
 clean:
 	rm -rf outputs .pytest_cache

@@ -13,7 +13,7 @@ Defaults render videos (``render_mode="rgb_array"``, 256 px front camera, no sha
 ``--env.env_state_extras=ee_pose,force`` (default empty) adds an env processor that appends those
 observations to ``observation.environment_state`` — how force reaches ACT / Diffusion, which read only
 state, environment state and images (``env_state.py``; the training side is a derived dataset,
-``lerobot_forcemap.experiments.learned.derive_env_state_dataset``).
+``experiments.learned.baselines.derive_env_state_dataset``).
 """
 
 from __future__ import annotations

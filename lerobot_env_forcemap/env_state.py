@@ -13,7 +13,7 @@ with the extras in the order given, each the full vector of its own observation 
     finger_force observation.finger_force  finger_force_<name> ...                           N
 
 The same concatenation is applied twice and must agree: at training time to a derived copy of the
-dataset (``lerobot_forcemap.experiments.learned.derive_env_state_dataset``), at evaluation time to the
+dataset (``experiments.learned.baselines.derive_env_state_dataset``), at evaluation time to the
 env's observation by ``EnvStateExtrasProcessorStep``, which ``ForcemapEnvConfig.get_env_processors()``
 returns when ``--env.env_state_extras=ee_pose,force`` is set (``lerobot-eval`` applies env processors
 after ``preprocess_observation`` and before the policy's own pre-processor, so normalisation uses the

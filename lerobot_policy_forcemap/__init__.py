@@ -7,8 +7,7 @@ the config's module name (``configuration_forcemap`` -> ``modeling_forcemap`` / 
 """
 
 import lerobot_env_forcemap  # noqa: F401  (registers forcemap_* EnvConfigs and gym ids)
-
-from .configuration_forcemap import ForceMapConfig
+from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
 
 __all__ = ["ForceMapConfig", "ForceMapPolicy", "make_forcemap_pre_post_processors"]
 
@@ -16,11 +15,11 @@ __all__ = ["ForceMapConfig", "ForceMapPolicy", "make_forcemap_pre_post_processor
 def __getattr__(name: str):
     # The policy and processors import torch-heavy LeRobot modules: load them on first use only.
     if name == "ForceMapPolicy":
-        from .modeling_forcemap import ForceMapPolicy
+        from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
 
         return ForceMapPolicy
     if name == "make_forcemap_pre_post_processors":
-        from .processor_forcemap import make_forcemap_pre_post_processors
+        from lerobot_policy_forcemap.processor_forcemap import make_forcemap_pre_post_processors
 
         return make_forcemap_pre_post_processors
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

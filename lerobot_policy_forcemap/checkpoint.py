@@ -15,8 +15,7 @@ import numpy as np
 from huggingface_hub import hf_hub_download
 
 from lerobot_forcemap.jsonfile import read_json_object
-
-from .configuration_forcemap import ForceMapConfig
+from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
 
 __all__ = [
     "TENSOR_DTYPE",

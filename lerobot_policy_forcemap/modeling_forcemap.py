@@ -37,9 +37,17 @@ from torch import Tensor, nn
 
 from lerobot_forcemap.data.hub import check_repo_id
 from lerobot_forcemap.jsonfile import read_json_object
-
-from .anchoring import object_poses, object_slots, place_skill, provisional_segments, reanchor_segment
-from .checkpoint import (
+from lerobot_forcemap.skill.episodes import load_episodes
+from lerobot_forcemap.skill.fit import FitReport, fit_skill
+from lerobot_forcemap.skill.model import FittedSkill, Reproduction
+from lerobot_forcemap.skill.placement import (
+    object_poses,
+    object_slots,
+    place_skill,
+    provisional_segments,
+    reanchor_segment,
+)
+from lerobot_policy_forcemap.checkpoint import (
     DUMMY_PARAMETER,
     check_processor_files,
     check_safetensors_file,
@@ -47,10 +55,7 @@ from .checkpoint import (
     expected_tensors,
     fetch_hub_checkpoint,
 )
-from .configuration_forcemap import RUNTIME_FIELDS, ForceMapConfig, config_error_detail
-from .episodes import load_episodes
-from .fitting import FitReport, fit_skill
-from .skill import FittedSkill, Reproduction
+from lerobot_policy_forcemap.configuration_forcemap import RUNTIME_FIELDS, ForceMapConfig, config_error_detail
 
 __all__ = ["ForceMapPolicy"]
 
@@ -122,7 +127,7 @@ class ForceMapPolicy(PreTrainedPolicy):
     def fit_episodes(
         self, episodes: list, fps: float, env_state_names: list[str], tasks: Sequence[str] = ()
     ) -> FitReport:
-        """Fit from :class:`~lerobot_policy_forcemap.episodes.EpisodeArrays` (no LeRobot dataset needed);
+        """Fit from :class:`~lerobot_forcemap.skill.episodes.EpisodeArrays` (no LeRobot dataset needed);
         ``tasks``: their task strings (an env asking for another task is refused, ``check_task``)."""
         skill, report = fit_skill(episodes, self.config, fps, env_state_names)
         cfg = self.config

@@ -16,7 +16,7 @@ from typing import Any
 import torch
 from lerobot.processor import PolicyAction, PolicyProcessorPipeline, make_default_pre_post_processors
 
-from .configuration_forcemap import ForceMapConfig
+from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
 
 __all__ = ["make_forcemap_pre_post_processors"]
 

@@ -1,4 +1,4 @@
-"""The benchmark and experiment scripts under ``scripts/`` still run, at their smallest size.
+"""The benchmark scripts (``benchmarks/``) and experiments (``experiments/``) still run, at their smallest size.
 
 They are not timed here (timings are what the scripts report, never test assertions); this only keeps
 them from rotting when a library signature changes (a changed return value once broke
@@ -49,6 +49,13 @@ RUNS = {
 }
 
 
+def _command(script: str) -> list[str]:
+    """How a script is run: a benchmark by its path, an experiment as a module of ``experiments``."""
+    if script.startswith("bench_"):
+        return [sys.executable, str(REPO_ROOT / "benchmarks" / f"{script}.py")]
+    return [sys.executable, "-m", f"experiments.{script}"]
+
+
 def _env() -> dict[str, str]:
     return {**os.environ, "OPENBLAS_NUM_THREADS": "1", "HF_HUB_OFFLINE": "1", "MUJOCO_GL": "egl"}
 
@@ -61,11 +68,7 @@ def test_script_runs(script, tmp_path):
         pytest.skip(f"{recording} not found (set FORCEMAP_SHARED_DATA)")
     env = _env()
     run = subprocess.run(
-        [
-            sys.executable,
-            str(REPO_ROOT / "scripts" / f"{script}.py"),
-            *(a.format(tmp=tmp_path) for a in args),
-        ],
+        [*_command(script), *(a.format(tmp=tmp_path) for a in args)],
         cwd=REPO_ROOT,
         env=env,
         capture_output=True,
@@ -98,7 +101,7 @@ BAD_FLAGS = [
 
 def _run_bad(script: str, args: list[str]) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, str(REPO_ROOT / "scripts" / f"{script}.py"), *args],
+        [*_command(script), *args],
         cwd=REPO_ROOT,
         env=_env(),
         capture_output=True,
@@ -131,30 +134,3 @@ def test_gbti_unknown_figure_demo_lists_the_keys(tmp_path):
     last = run.stderr.strip().splitlines()[-1]
     assert "--figure-demo 'nope'" in last and "Plate/User1/Position1" in last, last
     assert not any(tmp_path.iterdir()), "nothing is written before the flags are checked"
-
-
-@pytest.mark.parametrize(
-    "module",
-    [
-        "ablations",
-        "analysis",
-        "cells",
-        "common",
-        "force_reduction",
-        "grasping",
-        "peg_in_hole",
-        "report",
-        "tuning",
-    ],
-)
-def test_stage_modules_run_alone_point_to_run_all(module):
-    """The stage modules of scripts/experiments used to exit 0 doing nothing when run directly."""
-    run = subprocess.run(
-        [sys.executable, str(REPO_ROOT / "scripts" / "experiments" / f"{module}.py")],
-        cwd=REPO_ROOT,
-        env=_env(),
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert run.returncode == 1 and "run scripts/experiments/run_all.py" in run.stderr, run.stderr[-2000:]

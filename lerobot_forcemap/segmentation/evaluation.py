@@ -26,7 +26,7 @@ Matching methods:
   and 9 unmatched; optimal matches (4, 0) and (9, 5)).
 
 Micro ("pooled") scores over many demos sum M, P, E first (`pooled_score`); macro scores average the
-per-demo values (what `scripts/gbti_segmentation.py` reports with a spread over demos).
+per-demo values (what `python -m experiments.gbti_segmentation` reports with a spread over demos).
 """
 
 from __future__ import annotations

@@ -25,7 +25,7 @@ Event kinds:
   The sensor reads raw counts of either sign: a grasp that *lowers* the reading is not a contact here.
 
 Why these thresholds (measured on the 60 GBTI demos resampled to 1000 points,
-`scripts/gbti_segmentation.py` records the per-demo events, gripper span and contrast in
+`python -m experiments.gbti_segmentation` records the per-demo events, gripper span and contrast in
 `results/segmentation.json`):
 - Gripper: counts are integers 0..100, exactly 1 at rest, the closing ramp lasts 10–30 frames.
   ``onset_fraction`` 0.05 instead of 0.1 moves close / open onsets by 0 to −6 frames, 0.3 by +2 to

@@ -338,7 +338,9 @@ def test_a_warning_names_its_episode(dataset):
     first_of_1 = int(np.flatnonzero(table.column("episode_index").to_numpy() == 1)[0])
     ts[first_of_1 + 10] = ts[first_of_1 + 9]
     pq.write_table(table.set_column(table.column_names.index("timestamp"), "timestamp", pa.array(ts)), path)
-    with pytest.warns(UserWarning, match=r"^episode 1: stream 'wrist_force': 1 samples repeat .*\(first at frame 10\)"):
+    with pytest.warns(
+        UserWarning, match=r"^episode 1: stream 'wrist_force': 1 samples repeat .*\(first at frame 10\)"
+    ):
         segment_dataset(dataset, config=CONFIG, write=False, progress=False)
 
 

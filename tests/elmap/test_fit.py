@@ -558,7 +558,9 @@ def test_array_objects_and_datetimes_are_read_as_documented():
         ],
     )
     np.testing.assert_array_equal(fit.nodes, ref.nodes)
-    assert fit.duration == pytest.approx(ref.duration) and ref.duration == pytest.approx(0.34)  # mean of 0.39 s and 0.29 s
+    assert fit.duration == pytest.approx(ref.duration) and ref.duration == pytest.approx(
+        0.34
+    )  # mean of 0.39 s and 0.29 s
     with pytest.raises(ValueError, match=r"^forces\[0\]: got datetime64\[ns\] values; expected numbers"):
         fit_force_elastic_map(x, pd.Series(pd.date_range("2026-11-24", periods=40, freq="10ms")))
 

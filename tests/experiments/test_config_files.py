@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import subprocess
@@ -12,7 +13,6 @@ import draccus
 import pytest
 
 from tests.conftest import REPO_ROOT
-from tests.experiments.helpers import load_experiment_script
 
 CONFIGS = REPO_ROOT / "configs"
 RESULTS = REPO_ROOT / "results"
@@ -21,7 +21,7 @@ BIN = Path(sys.executable).parent
 
 @pytest.fixture(scope="module")
 def config_files():
-    return load_experiment_script("config_files")
+    return importlib.import_module("experiments.paper.config_files")
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +36,7 @@ def _shipped() -> dict[str, dict]:
 def test_shipped_configs_are_what_the_results_say(config_files, experiments_doc):
     built = config_files.build_configs(experiments_doc, config_files.load_learned(RESULTS / "learned"))
     shipped = _shipped()
-    assert sorted(shipped) == sorted(built), "configs/ is stale: run scripts/experiments/config_files.py"
+    assert sorted(shipped) == sorted(built), "configs/ is stale: run python -m experiments.paper.config_files"
     for rel, cfg in built.items():
         assert shipped[rel] == json.loads(json.dumps(cfg)), rel
     tasks = ("press", "erase", "peg_in_hole", "grasp_push", "grasp_flip")

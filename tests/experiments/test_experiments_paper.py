@@ -1,4 +1,4 @@
-"""``lerobot_forcemap.experiments.paper``: statistics, seed dealing, re-anchoring, jobs and their cache."""
+"""``experiments.paper.jobs``: statistics, seed dealing, re-anchoring, jobs and their cache."""
 
 from __future__ import annotations
 
@@ -8,8 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from lerobot_forcemap import layout
-from lerobot_forcemap.experiments.paper import (
+from experiments.paper.jobs import (
     DemoEpisode,
     Job,
     JobRunner,
@@ -24,6 +23,7 @@ from lerobot_forcemap.experiments.paper import (
     summarize_records,
     wilson_interval,
 )
+from lerobot_forcemap import layout
 from lerobot_forcemap.geometry import quat_multiply, quat_rotate
 from tests.conftest import REPO_ROOT
 
@@ -206,7 +206,7 @@ def test_jobs_run_cache_and_share_one_fit(tmp_path):
 
 
 def test_force_by_gripper_phase_splits_the_peaks():
-    from lerobot_forcemap.experiments.paper import force_by_gripper_phase
+    from experiments.paper.jobs import force_by_gripper_phase
 
     forces = np.array([[1.0, 0, 5], [-3.0, 1, 2], [0.5, -2, 0], [2.0, 0, 1]])
     grip = np.array([1.0, 0.5, 0.0, 0.97])

@@ -1,18 +1,13 @@
-"""``scripts/experiments/report.py``: the learned-baseline merge, the target checks and the tables."""
+"""``experiments.paper.report``: the learned-baseline merge, the target checks and the tables."""
 
 from __future__ import annotations
 
 import json
-import sys
 
 import numpy as np
 import pytest
 
-from tests.conftest import REPO_ROOT
-
-sys.path.insert(0, str(REPO_ROOT / "scripts" / "experiments"))
-
-import report  # noqa: E402
+from experiments.paper import report
 
 
 def _stat(mean):

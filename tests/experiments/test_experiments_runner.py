@@ -1,18 +1,13 @@
-"""``scripts/experiments/run_all.py`` end to end at the smallest size: tuning, Table II, the report."""
+"""``python -m experiments.paper`` end to end at the smallest size: tuning, Table II, the report."""
 
 from __future__ import annotations
 
 import json
-import sys
 
 import pytest
 
-from tests.conftest import REPO_ROOT
-
-sys.path.insert(0, str(REPO_ROOT / "scripts" / "experiments"))
-
-import run_all  # noqa: E402
-from common import Settings  # noqa: E402
+from experiments.paper import run_all
+from experiments.paper.common import Settings
 
 
 @pytest.fixture(scope="module")
@@ -85,7 +80,7 @@ def test_tuning_records_its_grid_and_choices(tiny_run):
 
 
 def test_second_run_is_served_from_the_cache_and_drops_other_code_versions(tiny_run, capsys):
-    from lerobot_forcemap.experiments.paper import code_fingerprint
+    from experiments.paper.jobs import code_fingerprint
 
     s, _ = tiny_run
     stale = [s.workdir / kind / "0123456789" for kind in ("raw", "checkpoints")]

@@ -8,21 +8,21 @@ import numpy as np
 import pytest
 import torch
 
-from lerobot_env_forcemap.env_state import (
-    EnvStateExtrasProcessorStep,
-    extended_env_state_names,
-    parse_env_state_extras,
-)
-from lerobot_forcemap import layout
-from lerobot_forcemap.experiments.learned import (
+from experiments.learned import run as learned_run
+from experiments.learned.baselines import (
     ENV_STATE_META_FILE,
     derive_env_state_dataset,
     policy_config,
     result_document,
     train_command,
 )
+from lerobot_env_forcemap.env_state import (
+    EnvStateExtrasProcessorStep,
+    extended_env_state_names,
+    parse_env_state_extras,
+)
+from lerobot_forcemap import layout
 from tests.conftest import REPO_ROOT
-from tests.experiments.helpers import load_learned_baselines_script
 
 SHIPPED = REPO_ROOT / "datasets"
 
@@ -293,7 +293,7 @@ def test_result_document_schema_and_numbers():
 
 
 def test_script_parse_steps(capsys):
-    mod = load_learned_baselines_script()
+    mod = learned_run
     assert mod.parse_steps(["300"], ["act", "diffusion"]) == {"act": 300, "diffusion": 300}
     assert mod.parse_steps(["act=5", "diffusion=7"], ["act", "diffusion"]) == {"act": 5, "diffusion": 7}
     with pytest.raises(ValueError, match="diffusion"):

@@ -1,4 +1,4 @@
-"""``scripts/experiments/learned_baselines.py --smoke``: real lerobot-train runs (3 steps, tiny ACT and
+"""``python -m experiments.learned --smoke``: real lerobot-train runs (3 steps, tiny ACT and
 Diffusion), 2 evaluation episodes, the result JSON schema, skipping, and ``lerobot-eval`` on the same
 checkpoint through ``--env.env_state_extras``."""
 
@@ -9,7 +9,7 @@ import json
 
 import pytest
 
-from tests.experiments.helpers import load_learned_baselines_script
+from experiments.learned import run as learned_run
 
 pytestmark = pytest.mark.slow
 
@@ -27,7 +27,7 @@ def smoke_run(tmp_path_factory):
     root = tmp_path_factory.mktemp("learned_smoke")
     out, work = root / "out", root / "work"
     argv = ["--smoke", "--tasks", "press", "--methods", *methods, "--out", str(out), "--work", str(work)]
-    assert load_learned_baselines_script().main(argv) == 0
+    assert learned_run.main(argv) == 0
     return out, work, methods
 
 
@@ -53,7 +53,7 @@ def test_existing_results_are_skipped(smoke_run, capsys):
     out, work, methods = smoke_run
     before = {m: (out / f"press__{m}.json").stat().st_mtime_ns for m in methods}
     assert (
-        load_learned_baselines_script().main(
+        learned_run.main(
             ["--smoke", "--tasks", "press", "--methods", *methods, "--out", str(out), "--work", str(work)]
         )
         == 0
@@ -63,7 +63,7 @@ def test_existing_results_are_skipped(smoke_run, capsys):
 
 
 def test_checkpoint_needs_the_env_state_extras(smoke_run):
-    from lerobot_forcemap.experiments.evaluate import evaluate_policy
+    from lerobot_forcemap.evaluation.evaluate import evaluate_policy
 
     _, work, _ = smoke_run
     ckpt = work / "press__act" / "train" / "checkpoints" / "last" / "pretrained_model"
@@ -92,7 +92,7 @@ def test_lerobot_eval_runs_on_the_same_seeds(smoke_run):
 @pytest.mark.skipif(not importlib.util.find_spec("diffusers"), reason="Diffusion needs diffusers")
 def test_a_diffusion_episode_repeats_with_its_seed(smoke_run):
     """torch is seeded per episode: Diffusion's sampling noise no longer varies between runs."""
-    from lerobot_forcemap.experiments.evaluate import evaluate_policy
+    from lerobot_forcemap.evaluation.evaluate import evaluate_policy
 
     _, work, _ = smoke_run
     ckpt = work / "press__diffusion" / "train" / "checkpoints" / "last" / "pretrained_model"
@@ -135,7 +135,7 @@ def test_reevaluate_repeats_the_evaluations_without_training(smoke_run, tmp_path
         "--work",
         str(work),
     ]
-    assert load_learned_baselines_script().main(argv) == 0
+    assert learned_run.main(argv) == 0
     new = json.loads((tmp_path / "press__act.json").read_text())
     assert new["config"]["reevaluated"] is True and new["train_wall_time_s"] == old["train_wall_time_s"]
     assert [(e["seed"], e["max_contact_force"]) for e in new["episodes"]] == [
@@ -144,10 +144,10 @@ def test_reevaluate_repeats_the_evaluations_without_training(smoke_run, tmp_path
     # a JSON whose training is not the checkpoint's is refused, naming both
     (tmp_path / "press__act.json").write_text(json.dumps({**old, "train_steps": 4000}))
     with pytest.raises(SystemExit) as exc:
-        load_learned_baselines_script().main(argv)
+        learned_run.main(argv)
     assert exc.value.code == 2
     assert "was trained 3 steps x batch 4, its JSON reports 4000 x 4" in capsys.readouterr().err
     (tmp_path / "press__act.json").unlink()
     with pytest.raises(SystemExit):
-        load_learned_baselines_script().main(argv)
+        learned_run.main(argv)
     assert "press__act.json not found" in capsys.readouterr().err

@@ -232,7 +232,7 @@ def test_node_times_must_lie_in_their_segment():
 def test_processor_steps_must_be_lerobot_processors(ckpt, tmp_path, step, message):
     """LeRobot imports and calls a step's "class" before checking it is a processor step: a pipeline
     file could run any callable. Refused before anything is built, for every loader."""
-    from lerobot_forcemap.experiments.evaluate import load_policy
+    from lerobot_forcemap.evaluation.evaluate import load_policy
 
     marker = tmp_path / "ran"
     step = json.loads(json.dumps(step).replace("{marker}", str(marker)))
@@ -306,7 +306,7 @@ def test_a_policy_loads_without_its_processors_with_a_warning(ckpt, caplog):
 def test_eval_loader_refuses_a_foreign_config_and_missing_processors(ckpt):
     """forcemap eval's loader: a checkpoint without its processor pipelines is named (LeRobot's own
     message calls it a checkpoint 'requiring migration')."""
-    from lerobot_forcemap.experiments.evaluate import load_policy
+    from lerobot_forcemap.evaluation.evaluate import load_policy
 
     (ckpt / "policy_preprocessor.json").unlink()
     with pytest.raises(ValueError, match=r"policy_preprocessor\.json: file not found"):
@@ -318,7 +318,7 @@ def test_eval_loader_refuses_an_act_config_beside_forcemap_tensors(ckpt):
     from lerobot.configs.types import FeatureType, PolicyFeature
     from lerobot.policies.act.configuration_act import ACTConfig
 
-    from lerobot_forcemap.experiments.evaluate import load_policy
+    from lerobot_forcemap.evaluation.evaluate import load_policy
 
     act = ACTConfig(
         input_features={
@@ -361,7 +361,7 @@ def test_fit_settings_given_at_load_are_refused_runtime_ones_apply(press_checkpo
     # under a config.json that misdescribes them)
     from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
 
-    from .conftest import SHIPPED_PRESS
+    from tests.conftest import SHIPPED_PRESS
 
     cfg = PreTrainedConfig.from_pretrained(press_checkpoint, cli_overrides=["--lam=0.5"])
     cfg.pretrained_path = press_checkpoint

@@ -10,7 +10,7 @@ import torch
 from tests.conftest import REPO_ROOT
 
 DATASET = REPO_ROOT / "datasets" / "grasp_flip"
-#: the settings the experiments use for the grasping tasks (scripts/experiments/common.py)
+#: the settings the experiments use for the grasping tasks (experiments/paper/common.py)
 SETTINGS = {"static_tolerance": 0.02, "anchor_radius": 0.15, "anchor_by_moved_object": True}
 
 

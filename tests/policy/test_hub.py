@@ -252,7 +252,7 @@ def test_a_bad_dataset_repo_id_is_named_before_anything_is_uploaded(press_checkp
 
 
 def test_a_broken_processor_file_fails_before_anything_is_uploaded(press_checkpoint, tmp_path, hub):
-    from lerobot_forcemap.experiments.push import push_policy
+    from lerobot_forcemap.cli.push import push_policy
 
     ckpt = tmp_path / "ckpt"
     shutil.copytree(press_checkpoint, ckpt)
@@ -265,7 +265,7 @@ def test_a_broken_processor_file_fails_before_anything_is_uploaded(press_checkpo
 
 
 def test_forcemap_push_cli_rejects_bad_input(tmp_path, hub):
-    from lerobot_forcemap.experiments.push import push_policy
+    from lerobot_forcemap.cli.push import push_policy
 
     with pytest.raises(ValueError, match="no config.json"):
         push_policy(tmp_path, REPO)

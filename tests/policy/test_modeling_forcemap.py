@@ -8,8 +8,7 @@ import torch
 
 from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
 from lerobot_policy_forcemap.modeling_forcemap import SKILL_TENSORS, ForceMapPolicy
-
-from .conftest import fit_and_save
+from tests.conftest import fit_and_save
 
 
 def _scene(button=(0.5, 0.0, 0.027), tcp=(0.42, 0.0, 0.15), batch=1):

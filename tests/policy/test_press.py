@@ -14,7 +14,7 @@ pytestmark = pytest.mark.slow
 
 @pytest.fixture(scope="module")
 def loaded(press_checkpoint):
-    from lerobot_forcemap.experiments.evaluate import load_policy
+    from lerobot_forcemap.evaluation.evaluate import load_policy
 
     return load_policy(press_checkpoint)
 
@@ -56,7 +56,7 @@ def _run(env, policy, pre, post, obs, max_steps=200):
 
 
 def test_press_success_and_less_force_than_the_demonstration(press_checkpoint, press_dataset):
-    from lerobot_forcemap.experiments.evaluate import evaluate_policy
+    from lerobot_forcemap.evaluation.evaluate import evaluate_policy
 
     demo_max, demo_mean, _ = _demo_figures(press_dataset)
     records = evaluate_policy(press_checkpoint, "press", 20, 1000, progress=False)

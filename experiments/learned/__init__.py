@@ -1,0 +1,1 @@
+"""Learned LeRobot baselines (ACT, Diffusion) on the same demonstrations: ``python -m experiments.learned``."""

@@ -1,0 +1,1 @@
+"""The paper's experiments (section IV) in simulation: ``python -m experiments.paper`` (``make experiments``)."""

@@ -1,0 +1,273 @@
+"""``make experiments``: the paper's experiments (§IV) in simulation, end to end.
+
+    .venv/bin/python -m experiments.paper [--workers 2] [--only tune table2 peg grasp ablations]
+                                                    [--quick --out /tmp/x] [--force]
+
+Stages (each module's docstring has the details and the protocol is in ``common.py``):
+
+0. ``tune``       settings chosen on tuning seeds / demonstrations (``tuning.py``)
+1. ``table2``     force reduction, press and erase (``force_reduction.py``)
+2. ``peg``        peg-in-hole vs hybrid force/position control (``peg_in_hole.py``)
+3. ``grasp``      grasp_push / grasp_flip, seen and unseen objects (``grasping.py``)
+4. ``ablations``  forces off, rho_max cap off, 3-D map, segmentations (``ablations.py``)
+5. report: ``results/experiments.json``, ``results/experiments.md``, PNGs (``report.py``), with the
+   learned baselines merged from ``results/learned/`` (trained by ``learned_baselines.py``).
+
+Every episode's record is cached in ``outputs/experiments/raw/<code fingerprint>/<job>.json``: a
+second run only re-aggregates (that is how to refresh the report once the learned baselines land);
+a run removes the caches (records and checkpoints) of other code versions and says so. ``--force``
+re-runs everything; ``--quick`` is the smoke-test size (2 demonstrations, 2 seeds, tiny grids) and
+must be given ``--out`` (it never writes ``results/``), as must ``--only`` with some of the stages.
+The repo's ``configs/`` is rewritten only by a full run into ``results/``; other runs write theirs
+under ``<out>/configs``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import platform
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("MUJOCO_GL", "egl")
+os.environ.setdefault("HF_HUB_OFFLINE", "1")
+logging.getLogger("lerobot.utils.import_utils").setLevel(logging.ERROR)
+
+from .common import RESULTS, WORKDIR, Settings  # noqa: E402
+
+STAGES = ("tune", "table2", "peg", "grasp", "ablations")
+
+
+def _json_load(path: Path):
+    import json
+
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+def run(settings: Settings, stages: tuple[str, ...] = STAGES) -> dict:
+    """Run the stages and write the report; returns the experiments document. Uses ``settings.runner``
+    (a ``JobRunner``) or makes one of ``settings.workers`` processes for the run."""
+    from experiments.paper.jobs import JobRunner
+
+    if settings.runner is not None:
+        return _run(settings, stages)
+    with JobRunner(settings.workers) as runner:
+        return _run(replace(settings, runner=runner), stages)
+
+
+def _run(settings: Settings, stages: tuple[str, ...]) -> dict:
+    import json
+    import shutil
+
+    from experiments.paper.jobs import code_fingerprint, prune_stale_caches
+
+    from . import ablations, config_files, force_reduction, grasping, peg_in_hole, report
+    from . import tuning as tuning_mod
+    from .cells import aggregate, demonstration_record, run_cells
+
+    s = settings
+    s.workdir.mkdir(parents=True, exist_ok=True)
+    if s.force:  # refit every checkpoint of this code version too (jobs share fits)
+        shutil.rmtree(s.workdir / "checkpoints" / code_fingerprint(), ignore_errors=True)
+    import resource
+
+    runtime: dict = {"stages": {}}
+    t_all = time.perf_counter()
+    start = resource.getrusage(resource.RUSAGE_SELF)
+    cpu_at_start = start.ru_utime + start.ru_stime
+    tuning_path = s.workdir / ("tuning_quick.json" if s.quick else "tuning.json")
+
+    def timed(name, fn, episodes=None):
+        t0 = time.perf_counter()
+        out = fn()
+        runtime["stages"][name] = {
+            "wall_s": time.perf_counter() - t0,
+            "episodes": episodes(out) if episodes else None,
+        }
+        return out
+
+    if "tune" in stages or not tuning_path.is_file():
+        tuning = timed("tune", lambda: tuning_mod.tune_all(s), episodes=lambda _: None)
+        tuning_path.write_text(json.dumps(tuning, indent=1))
+    else:
+        tuning = _json_load(tuning_path)
+
+    cells = []
+    makers = {
+        "table2": lambda: force_reduction.cells(tuning, s),
+        "peg": lambda: peg_in_hole.cells(tuning["peg_in_hole"], s),
+        "grasp": lambda: grasping.cells(s),
+        "ablations": lambda: ablations.cells(tuning, s),
+    }
+    stage_of = {}
+    for name in ("table2", "peg", "grasp", "ablations"):
+        if name in stages:
+            new = makers[name]()
+            cells.extend(new)
+            stage_of.update({id(c): name for c in new})
+    # one pass over every stage's jobs keeps the workers busy (per-stage CPU time is reported below)
+    timed(
+        "evaluation (all stages)",
+        lambda: run_cells(cells, s, "evaluation"),
+        episodes=lambda _: sum(len(j.seeds) for c in cells for j in c.jobs),
+    )
+    for name in ("table2", "peg", "grasp", "ablations"):
+        mine = [c for c in cells if stage_of[id(c)] == name]
+        if mine:
+            runtime["stages"][f"  {name} (sum of its jobs' wall times, over the workers)"] = {
+                "wall_s": float(sum(r["wall_s"] for c in mine for r in c.results if not r.get("cached"))),
+                "episodes": sum(len(j.seeds) for c in mine for j in c.jobs),
+            }
+
+    # ---- records
+    records = []
+    for exp, task in (("table2", "press"), ("table2", "erase"), ("peg", "peg_in_hole")):
+        if any(c.experiment == exp and c.task == task for c in cells):
+            records.append(demonstration_record(exp, task, s.demos))
+    for c in cells:
+        rec = aggregate(c, s.tune_demos)
+        rec["metric_means"] = report.metric_means(c)
+        rec["metric_stds"] = report.metric_stds(c)
+        if c.experiment == "grasp":
+            rec["seen"] = c.object == grasping.GRASP_TASKS[c.task][0]
+        records.append(rec)
+    if not s.quick:
+        demos = report.demos_by_task(("press", "erase", "peg_in_hole"))
+        learned = report.learned_records(s.learned_dir, demos)
+        # learned rows go after the forcemap rows of their table
+        records.extend(r for r in learned if any(x["experiment"] == r["experiment"] for x in records))
+    records = _ordered(records)
+
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    runner = s.runner
+    runtime.update(
+        cpu_s=own.ru_utime + own.ru_stime - cpu_at_start + (runner.cpu_s if s.workers > 1 else 0.0),
+        cpu_note="CPU of the main process plus the CPU the workers spent on the jobs they ran",
+        total_s=time.perf_counter() - t_all,
+        workers=s.workers,
+        machine=f"{platform.machine()}, {os.cpu_count()} CPUs (shared), Python {platform.python_version()}",
+        jobs=runner.n_jobs,
+        cached_jobs=runner.n_cached,
+    )
+    # the runtime of the last run from an empty cache (what `make experiments` costs) survives cached re-runs
+    full_path = s.workdir / ("last_full_run_quick.json" if s.quick else "last_full_run.json")
+    if runtime["jobs"] and runtime["cached_jobs"] == 0 and set(stages) == set(STAGES):
+        full_path.write_text(
+            json.dumps({"code_fingerprint": code_fingerprint(), "runtime": runtime}, indent=1)
+        )
+    last_full = _json_load(full_path)
+    if last_full and last_full.get("code_fingerprint") == code_fingerprint():
+        runtime["last_full_run"] = last_full["runtime"]
+    doc = {
+        "code_fingerprint": code_fingerprint(),
+        "protocol": {
+            "eval_seeds": list(s.eval_seeds),
+            "tune_seeds": list(s.tune_seeds),
+            "demos": list(s.demos),
+            "tune_demos": list(s.tune_demos),
+            "quick": s.quick,
+        },
+        "tuning": tuning,
+        "records": records,
+        "targets": report.targets(records),
+        "runtime": runtime,
+    }
+    s.results.mkdir(parents=True, exist_ok=True)
+    figures = {}
+    for key, fn, arg in (
+        ("profiles", report.plot_force_profiles, cells),
+        ("paths", report.plot_paths, cells),
+        ("table2", report.plot_table2, records),
+        ("peg", report.plot_peg, records),
+    ):
+        p = fn(arg, s.results / f"experiments_{key}.png")
+        if p is not None:
+            figures[key] = p.name
+    from . import analysis
+
+    md = report.build_markdown(doc, figures, analysis.analysis(doc, cells))
+    report.write_json(doc, s.results / "experiments.json")
+    (s.results / "experiments.md").write_text(md)
+    print(
+        f"wrote {s.results / 'experiments.json'}, {s.results / 'experiments.md'} and {len(figures)} figures"
+    )
+    # the chosen settings as lerobot-train / lerobot-eval --config_path files: the repo's configs/ only from
+    # a full run into results/ (write_configs removes the files a run does not produce)
+    full = not s.quick and set(stages) == set(STAGES) and s.results.resolve() == RESULTS.resolve()
+    config_dir = config_files.REPO / "configs" if full else s.results / "configs"
+    learned_docs = [] if s.quick else config_files.load_learned(s.learned_dir)
+    written = config_files.write_configs(config_files.build_configs(doc, learned_docs), config_dir)
+    print(f"wrote {len(written)} configs under {config_dir}")
+    print(
+        f"total wall time {runtime['total_s']:.0f} s ({runtime['cached_jobs']} of {runtime['jobs']} jobs cached)"
+    )
+    stale, size = prune_stale_caches(s.workdir)
+    if stale:  # each code change leaves ~40 MB of records and checkpoints no later run can reuse
+        print(
+            f"removed the caches of {len({d.name for d in stale})} earlier code version(s) under {s.workdir} "
+            f"({size / 1e6:.0f} MB)"
+        )
+    return doc
+
+
+ORDER = {"table2": 0, "peg": 1, "grasp": 2, "ablation": 3}
+METHOD_ORDER = [
+    "demonstration", "replay", "elmap", "hybrid", "act", "diffusion", "ours_default", "ours", "ours_limit", "limit_alone",
+]  # fmt: skip
+
+
+def _ordered(records):
+    def key(r):
+        m = r["method"]
+        return (
+            ORDER.get(r["experiment"], 9),
+            r["task"],
+            r.get("object") or "",
+            METHOD_ORDER.index(m) if m in METHOD_ORDER else len(METHOD_ORDER),
+        )
+
+    table = [r for r in records if r["experiment"] != "ablation"]
+    abl = [
+        r for r in records if r["experiment"] == "ablation"
+    ]  # keep the ablation rows in their listed order
+    return sorted(table, key=key) + abl
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    parser.add_argument("--only", nargs="+", choices=STAGES, default=list(STAGES), help="stages to run")
+    parser.add_argument("--quick", action="store_true", help="smoke-test size (needs --out)")
+    parser.add_argument("--out", default=None, help="results folder (default results/)")
+    parser.add_argument("--workdir", default=None, help="cache folder (default outputs/experiments)")
+    parser.add_argument("--force", action="store_true", help="re-run cached jobs")
+    args = parser.parse_args(argv)
+    if args.quick and args.out is None:
+        parser.error("--quick writes a smoke-test report: give --out (results/ holds the real one)")
+    if set(args.only) != set(STAGES) and args.out is None:
+        # the report holds only the stages run: it would replace results/ and configs/ with a part of them
+        parser.error(
+            f"--only {' '.join(args.only)} writes a partial report: give --out (results/ holds the full one)"
+        )
+    s = Settings(
+        workers=args.workers,
+        force=args.force,
+        results=Path(args.out) if args.out else RESULTS,
+        workdir=Path(args.workdir)
+        if args.workdir
+        else (WORKDIR if not args.quick else Path(args.out) / "work"),
+    )
+    if args.quick:
+        s = s.quick_version()
+    run(s, tuple(args.only))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

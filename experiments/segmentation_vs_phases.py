@@ -1,0 +1,95 @@
+"""Which of the scripted demonstrator's phase switches the forcemap policy's segmentation finds.
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python -m experiments.segmentation_vs_phases [--tasks press erase] [--set KEY=VALUE ...]
+
+For each task's shipped dataset (``datasets/<task>``, 10 demonstrations recorded with ``demo_phase``), the
+policy's own segmentation of every demonstration (``segments="auto"``, as a one-shot fit runs it; ``--set``
+changes ForceMapConfig fields such as ``stream_weights``) is matched to the phase switches within the
+segmentation window (``lerobot_forcemap.segmentation.evaluation``). Prints, per switch, in how many
+demonstrations it was found, and the pooled precision / recall / F1 that the ablation table of
+``results/experiments.md`` reports for the same setting.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("HF_HUB_OFFLINE", "1")
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def phase_hits(dataset: Path, overrides: list[str]) -> tuple[list[tuple[str, str]], list[int], int, dict]:
+    """(switches as (from, to) phase names, found-in counts, demonstrations, pooled score) for one dataset."""
+    import numpy as np
+
+    from experiments.paper.jobs import demo_phase_switches, segmentation_score
+    from lerobot_forcemap.cli.fit import make_config
+    from lerobot_forcemap.envs.demonstrators import DEMONSTRATORS
+    from lerobot_forcemap.skill.episodes import load_episodes
+    from lerobot_forcemap.skill.fit import segment_episode, segmentation_config
+
+    switches = demo_phase_switches(dataset)
+    if not switches:
+        raise ValueError(f"--datasets {dataset}: no demo_phase column (record it with `forcemap record`)")
+    cfg = make_config(sorted(switches), overrides)
+    episodes, _, fps, tasks = load_episodes(f"local/{dataset.name}", str(dataset), cfg)
+    window = segmentation_config(cfg, fps).window
+    fits = [
+        {
+            "demo": ep.episode,
+            "changepoints": segment_episode(ep, cfg, fps).tolist(),
+            "segmentation_window_frames": window,
+        }
+        for ep in episodes
+    ]
+    from lerobot_forcemap.segmentation.evaluation import score_changepoints
+
+    n_switches = max(len(s) for s in switches.values())
+    found = np.zeros(n_switches, dtype=int)
+    for f in fits:
+        score = score_changepoints(f["changepoints"][1:-1], switches[f["demo"]], tolerance=window)
+        np.add.at(found, score.pairs[:, 1], 1)
+    phases = getattr(DEMONSTRATORS.get(dataset.name), "phases", None)
+    names = [
+        (phases[i], phases[i + 1]) if phases and i + 1 < len(phases) else (str(i), str(i + 1))
+        for i in range(n_switches)
+    ]
+    return names, found.tolist(), len(fits), segmentation_score(fits, switches)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--tasks", nargs="+", default=["press", "erase"])
+    parser.add_argument(
+        "--datasets", type=Path, default=REPO / "datasets", help="folder of the task datasets"
+    )
+    parser.add_argument("--set", dest="overrides", nargs="+", default=[], help="ForceMapConfig FIELD=VALUE")
+    args = parser.parse_args(argv)
+    from lerobot_forcemap.lerobot_logs import quiet_torchcodec_warning
+
+    quiet_torchcodec_warning()
+    for task in args.tasks:
+        if not (args.datasets / task / "meta" / "info.json").is_file():
+            parser.error(f"--datasets {args.datasets / task}: not a LeRobot dataset (no meta/info.json)")
+    for task in args.tasks:
+        try:
+            names, found, n, score = phase_hits(args.datasets / task, args.overrides)
+        except ValueError as err:
+            parser.error(str(err))
+        print(f"{task}: found in n of {n} demonstrations, per phase switch")
+        for (a, b), k in zip(names, found, strict=True):
+            print(f"  {a} -> {b}: {k}")
+        print(
+            f"  pooled precision {score['precision']:.2f}, recall {score['recall']:.2f}, F1 {score['f1']:.2f} "
+            f"(tolerance {score['tolerance_frames']} frames)"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

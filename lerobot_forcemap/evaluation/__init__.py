@@ -1,0 +1,1 @@
+"""Rolling policies in the sim tasks and summarising what happened: records, statistics, reports."""

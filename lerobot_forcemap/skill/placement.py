@@ -1,0 +1,411 @@
+"""Place a fitted skill in a new scene: re-anchor it to the robot's pose and the objects' poses.
+
+Objects come from the environment state by name: every ``<obj>_x <obj>_y <obj>_z`` triple of
+``env_state_names`` is an object position, ``<obj>_qw .. <obj>_qz`` (if present) its orientation
+(w first); e.g. the press task's ``button_x ... button_qz``.
+
+An anchored segment s is stored in the frame of its object's pose at the segment's first frame in
+the demonstration (``anchor_pose`` A_s); ``anchor_initial_pose`` A_0 is the object's pose at the
+demonstration's first frame. At reset, with the object at P now, the object is predicted to be at
+``P ∘ A_0⁻¹ ∘ A_s`` when the segment starts (:func:`predicted_anchor_poses`: its demonstrated motion
+up to the segment, moved with the object; for an object at rest A_s = A_0 and this is P).
+
+Placing (:func:`place_skill`), per segment s with stored nodes y_s:
+
+1. Anchored segments (stored in an object's frame) are moved rigidly with the object's (predicted)
+   pose at the segment's start: ``p + R y``, orientations ``q ⊗ q_s``. The force-lifted contact
+   nodes keep their shape.
+2. Boundary points: the start of segment 0 is the robot's current pose; a boundary next to an
+   anchored segment is that segment's own (moved) endpoint; the remaining boundaries (between two
+   free segments, or the end of trailing free segments) get the displacement interpolated in time
+   between the known ones (held after the last known one). Consecutive segments anchored to the
+   same object keep their fitted relation (they move rigidly together, small fitted gaps included).
+3. Each free segment (base frame) gets the new start/end points as equality constraints
+   (``Constraints(start=..., end=...)``) and is re-solved by the elastic map against its own stored
+   nodes, first displaced by the endpoint displacements blended linearly along the segment's time
+   law. The blend is needed because the squared cluster weight of the data term (SPEC §1)
+   dominates the smoothness terms at the fitted λ, μ: a re-solve against the unmoved nodes only
+   bends the few nodes next to a moved end (a kink, not a new path). An anchored segment whose
+   endpoint has to move (it is the first segment, or its neighbour is anchored elsewhere) gets the
+   blend only, so its contact nodes stay as fitted.
+4. The orientation of segment 0 is blended from the robot's current orientation to the stored one
+   (rotation vector of the difference scaled by 1 − u along the segment).
+
+Provisional segments: an anchored segment whose object the robot will still move before the
+segment starts (a grasp after a push; :func:`provisional_segments`) has only a predicted pose, which
+may be wrong (an unseen object does not move like the demonstration's). It is laid out like a free
+segment (its demonstrated base-frame path, displaced with its neighbours) and does not fix its
+neighbours' endpoints until it is re-anchored when it starts.
+
+Re-anchoring when a segment starts (:func:`reanchor_segment`, called by the policy online): the
+object's observed position minus the position the placement assumed gives a shift d; segment s and
+every later segment anchored to the same object move by d (translation only: a rolled sphere's or an
+unseen object's orientation says nothing about where to grasp it), and segments s.. are placed
+again by the rules above with the junction, the last target of segment s − 1 (already run), as
+their start: segment s starts exactly where the robot was sent and the junction fades out over
+``blend_s`` seconds (then it follows the shifted, object-relative path); free segments after it are
+re-solved by the elastic map with their new endpoints as equality constraints.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from lerobot_forcemap.elmap import Constraints, fit_force_elastic_map
+from lerobot_forcemap.geometry import (
+    quat_conjugate,
+    quat_multiply,
+    quat_normalize,
+    quat_rotate,
+    quat_to_rotvec,
+    rotvec_to_quat,
+)
+from lerobot_forcemap.skill.model import FittedSkill, Reproduction, SegmentMaps
+
+__all__ = [
+    "ObjectSlot",
+    "object_slots",
+    "object_poses",
+    "to_object_frame",
+    "from_object_frame",
+    "object_positions",
+    "compose_poses",
+    "invert_pose",
+    "predicted_anchor_poses",
+    "provisional_segments",
+    "place_skill",
+    "reanchor_segment",
+    "IDENTITY_POSE",
+]
+
+Array = NDArray[np.float64]
+IDENTITY_POSE = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+
+
+@dataclass(frozen=True)
+class ObjectSlot:
+    """Where one object's pose sits in the environment state: position columns (3), quaternion columns (4) or None."""
+
+    name: str
+    position: tuple[int, int, int]
+    quaternion: tuple[int, int, int, int] | None
+
+
+def object_slots(names: Sequence[str]) -> tuple[ObjectSlot, ...]:
+    """Objects named in ``env_state_names`` (``<obj>_x/_y/_z`` and optionally ``<obj>_qw/_qx/_qy/_qz``)."""
+    names = [str(n) for n in names]
+    index = {n: i for i, n in enumerate(names)}
+    slots = []
+    for n in names:
+        if not n.endswith("_x"):
+            continue
+        obj = n[:-2]
+        if not obj or not all(f"{obj}_{a}" in index for a in "yz"):
+            continue
+        pos = tuple(index[f"{obj}_{a}"] for a in "xyz")
+        quat = None
+        if all(f"{obj}_q{a}" in index for a in "wxyz"):
+            quat = tuple(index[f"{obj}_q{a}"] for a in "wxyz")
+        slots.append(ObjectSlot(obj, pos, quat))
+    return tuple(slots)
+
+
+def object_poses(env_state: Array, slots: Sequence[ObjectSlot]) -> dict[str, Array]:
+    """``{name: pose (7,) [x y z qw qx qy qz]}`` from one environment-state vector ``(E,)``."""
+    env_state = np.asarray(env_state, dtype=np.float64).reshape(-1)
+    out = {}
+    for s in slots:
+        idx = [*s.position, *(s.quaternion or ())]
+        if max(idx) >= len(env_state):
+            raise ValueError(
+                f"environment state has {len(env_state)} entries; object {s.name!r} needs column {max(idx)}"
+            )
+        pose = IDENTITY_POSE.copy()
+        pose[:3] = env_state[list(s.position)]
+        if s.quaternion is not None:
+            q = env_state[list(s.quaternion)]
+            if np.linalg.norm(q) < 1e-6:
+                raise ValueError(f"environment state: object {s.name!r} has a zero quaternion")
+            pose[3:] = quat_normalize(q)
+        if not np.all(np.isfinite(pose)):
+            raise ValueError(f"environment state: object {s.name!r} has a non-finite pose {pose.tolist()}")
+        out[s.name] = pose
+    return out
+
+
+def object_positions(env_state: Array, slot: ObjectSlot) -> Array:
+    """Positions ``(T, 3)`` of one object from environment-state rows ``(T, E)``."""
+    env_state = np.asarray(env_state, dtype=np.float64)
+    return env_state.reshape(-1, env_state.shape[-1])[:, list(slot.position)]
+
+
+def compose_poses(a: Array, b: Array) -> Array:
+    """Pose ``a ∘ b`` (7,): b expressed in a's frame, mapped to a's parent frame."""
+    return np.concatenate([a[:3] + quat_rotate(a[3:], b[:3]), quat_normalize(quat_multiply(a[3:], b[3:]))])
+
+
+def invert_pose(a: Array) -> Array:
+    """Pose ``a⁻¹`` (7,)."""
+    q = quat_conjugate(a[3:])
+    return np.concatenate([-quat_rotate(q, a[:3]), q])
+
+
+def predicted_anchor_poses(skill: FittedSkill, object_pose: Mapping[str, Array]) -> list[Array | None]:
+    """Per segment: the base-frame pose (7,) its anchor object is predicted to have when the segment
+    starts, ``P ∘ A_0⁻¹ ∘ A_s`` with P = ``object_pose[anchor]`` now (None for free segments)."""
+    out: list[Array | None] = []
+    for s, seg in enumerate(skill.segments):
+        if not seg.anchor:
+            out.append(None)
+            continue
+        if seg.anchor not in object_pose:
+            raise ValueError(
+                f"segment {s} is anchored to object {seg.anchor!r}, but the scene has no pose for it "
+                f"(objects: {sorted(object_pose)})"
+            )
+        now = np.asarray(object_pose[seg.anchor], dtype=np.float64)
+        motion = compose_poses(invert_pose(np.asarray(seg.anchor_initial_pose, float)), seg.anchor_pose)
+        out.append(compose_poses(now, motion))
+    return out
+
+
+def provisional_segments(
+    skill: FittedSkill, reference: Mapping[str, Array], tolerance: float, started: int = 0
+) -> list[bool]:
+    """Per segment: True when it is anchored, has not started (index > ``started``), and its object
+    moved by more than ``tolerance`` (m) in the demonstration between ``reference[object]`` (the
+    demonstrated pose (7,) at the object's last observation: ``anchor_initial_pose`` at reset, the
+    ``anchor_pose`` of the segment it was last re-anchored for) and the segment's start."""
+    out = []
+    for s, seg in enumerate(skill.segments):
+        ref = reference.get(seg.anchor) if seg.anchor else None
+        out.append(
+            s > started
+            and ref is not None
+            and float(np.linalg.norm(np.asarray(seg.anchor_pose[:3]) - np.asarray(ref)[:3])) > tolerance
+        )
+    return out
+
+
+def to_object_frame(pose: Array, positions: Array, vectors: Array | None = None, quats: Array | None = None):
+    """Express base-frame positions (T, 3), free vectors (T, 3) and orientations (T, 4) in the frame
+    of an object at ``pose (7,)``; returns the three (None stays None)."""
+    q_inv = quat_conjugate(pose[3:])
+    p = quat_rotate(q_inv, positions - pose[:3])
+    v = None if vectors is None else quat_rotate(q_inv, vectors)
+    q = None if quats is None else quat_multiply(q_inv, quats)
+    return p, v, q
+
+
+def from_object_frame(pose: Array, positions: Array, quats: Array) -> tuple[Array, Array]:
+    """Inverse of :func:`to_object_frame` for positions (N, 3) and orientations (N, 4)."""
+    return pose[:3] + quat_rotate(pose[3:], positions), quat_multiply(pose[3:], quats)
+
+
+def _blend(seg: SegmentMaps, d_start: Array, d_end: Array, start_window: float | None = None) -> Array:
+    """Nodes displaced by ``(1-u) d_start + u d_end``, u the node's fraction of the segment's time law;
+    with ``start_window`` (s) the start displacement fades out linearly over that time instead."""
+    t = seg.node_times
+    span = t[-1] - t[0]
+    u = (t - t[0]) / span if span > 0 else np.linspace(0.0, 1.0, len(t))
+    fade = 1.0 - u
+    if start_window is not None and start_window < span:
+        fade = np.clip(1.0 - (t - t[0]) / max(start_window, 1e-9), 0.0, 1.0)
+    return seg.nodes + fade[:, None] * d_start + u[:, None] * d_end
+
+
+def _resolve(
+    seg: SegmentMaps, data: Array, start: Array, end: Array, params: Mapping[str, float]
+) -> SegmentMaps:
+    """Re-solve a free segment against ``data (N, 3)`` (its displaced nodes) with start/end equalities.
+
+    With ``params["time_scale"] = v > 0`` the re-solve is in space-time like the fit: the node times
+    scaled by v are a 4th coordinate whose ends are constrained to the stored ones.
+    """
+    t = seg.node_times
+    timed = t[-1] > t[0]
+    v = float(params.get("time_scale") or 0.0)
+    if v > 0:
+        data = np.column_stack([data, v * t])
+        start = np.append(start, v * t[0])
+        end = np.append(end, v * t[-1])
+    fit = fit_force_elastic_map(
+        data,
+        n_nodes=len(data),
+        lam=float(params["lam"]),
+        mu=float(params["mu"]),
+        constraints=Constraints(start=start, end=end),
+        times=t if timed else None,
+        orientations=seg.orientations,
+        max_iter=50,
+    )
+    # the re-solve's time law runs from 0 over the stored span; keep the segment's own offset
+    times = t[0] + fit.node_times if timed else t
+    return replace(seg, nodes=fit.nodes[:, :3], node_times=times, orientations=fit.orientations)
+
+
+def place_skill(
+    skill: FittedSkill,
+    *,
+    robot_pose: Array | None,
+    object_pose: Mapping[str, Array] | None = None,
+    params_for: Callable[[int], Mapping[str, float]],
+    resolve: bool = True,
+    anchor_poses: Sequence[Array | None] | None = None,
+    start_window: float | None = None,
+    provisional: Sequence[bool] | None = None,
+) -> Reproduction:
+    """The skill placed in a scene (see the module docstring).
+
+    robot_pose: (7,) current end-effector pose [x y z qw qx qy qz] (None: keep the stored start);
+    object_pose: {object name: (7,) pose now} for every anchor of the skill (pass
+    ``skill.demo_object_poses()`` to replay the demonstration's scene);
+    params_for(s): the segment's elastic-map parameters (``lam``, ``mu``, ``time_scale`` are used);
+    resolve: re-solve free segments with the elastic map (False: the blended displacement only);
+    anchor_poses: per segment the base-frame anchor pose at its start (7,) (None for free segments),
+    instead of the prediction from ``object_pose`` (:func:`predicted_anchor_poses`);
+    start_window: the first segment's start displacement (robot pose vs stored start) fades out over
+    this many seconds instead of over the whole segment (None);
+    provisional: per segment, True for an anchored segment whose object the robot will still move
+    before the segment starts (:func:`provisional_segments`): its predicted pose is a guess, so it
+    does not fix its neighbours' endpoints; it is laid out like a free segment (its demonstrated
+    base-frame path, displaced with its neighbours) until it is re-anchored when it starts.
+    Each placed anchored segment keeps the pose it was placed with (or will be re-anchored from, when
+    provisional) as its ``anchor_pose``.
+    """
+    segs = list(skill.segments)
+    S = len(segs)
+    if anchor_poses is None:
+        anchor_poses = predicted_anchor_poses(skill, object_pose or {})
+    if len(anchor_poses) != S:
+        raise ValueError(f"anchor_poses: {len(anchor_poses)} entries for {S} segments")
+    prov = [False] * S if provisional is None else [bool(p) for p in provisional]
+    if len(prov) != S:
+        raise ValueError(f"provisional: {len(prov)} entries for {S} segments")
+    base: list[SegmentMaps] = []
+    for s, seg in enumerate(segs):
+        if seg.anchor:
+            if anchor_poses[s] is None:
+                raise ValueError(
+                    f"anchor_poses[{s}]: segment {s} is anchored to {seg.anchor!r} but has no pose"
+                )
+            pose = np.asarray(anchor_poses[s], dtype=np.float64)
+            frame = np.asarray(seg.anchor_pose, dtype=np.float64) if prov[s] else pose
+            nodes, quats = from_object_frame(frame, seg.nodes, seg.orientations)
+            base.append(replace(seg, nodes=nodes, orientations=quats, anchor_pose=pose))
+        else:
+            base.append(seg)
+    fixed = [bool(seg.anchor) and not prov[s] for s, seg in enumerate(base)]
+
+    # boundary points b_0..b_S (None where not fixed by the robot or an anchored neighbour)
+    known: list[Array | None] = [None] * (S + 1)
+    demo_point = [base[s].nodes[0] for s in range(S)] + [base[-1].nodes[-1]]
+    known[0] = np.asarray(robot_pose[:3], float) if robot_pose is not None else base[0].nodes[0].copy()
+    for s in range(1, S):
+        if fixed[s]:
+            known[s] = base[s].nodes[0]
+        elif fixed[s - 1]:
+            known[s] = base[s - 1].nodes[-1]
+    if fixed[-1]:
+        known[S] = base[-1].nodes[-1]
+    starts = np.concatenate([[0.0], np.cumsum([s.duration for s in base])])
+    have = [i for i in range(S + 1) if known[i] is not None]
+    disp = np.array([known[i] - demo_point[i] for i in have])
+    points = []
+    for i in range(S + 1):
+        if known[i] is not None:
+            points.append(known[i])
+        else:  # displacement interpolated in time between the fixed boundaries, held after the last
+            d = np.array([np.interp(starts[i], starts[have], disp[:, q]) for q in range(3)])
+            points.append(demo_point[i] + d)
+
+    placed = []
+    for s, seg in enumerate(base):
+        # consecutive segments anchored to the same object keep their fitted relation (rigid together)
+        same_before = s > 0 and fixed[s] and fixed[s - 1] and base[s - 1].anchor == seg.anchor
+        same_after = s < S - 1 and fixed[s] and fixed[s + 1] and base[s + 1].anchor == seg.anchor
+        d0 = np.zeros(3) if same_before else points[s] - seg.nodes[0]
+        d1 = np.zeros(3) if same_after else points[s + 1] - seg.nodes[-1]
+        moved = max(np.abs(d0).max(), np.abs(d1).max()) > 0.0
+        out = seg
+        if moved:
+            data = _blend(seg, d0, d1, start_window if s == 0 else None)
+            if seg.anchor or not resolve:
+                out = replace(seg, nodes=data)
+            else:
+                out = _resolve(seg, data, data[0], data[-1], params_for(s))
+        if s == 0 and robot_pose is not None:
+            q_robot = np.asarray(robot_pose[3:7], float)
+            out = replace(out, orientations=_blend_start_orientation(out, q_robot, start_window))
+        placed.append(out)
+    return Reproduction(tuple(placed))
+
+
+def reanchor_segment(
+    rep: Reproduction,
+    skill: FittedSkill,
+    s: int,
+    position: Array,
+    *,
+    params_for: Callable[[int], Mapping[str, float]],
+    resolve: bool = True,
+    blend_s: float | None = None,
+    provisional: Sequence[bool] | None = None,
+) -> Reproduction:
+    """``rep`` with segment ``s`` (anchored) re-anchored to its object's observed ``position (3,)``
+    when it starts (module docstring). Segments before s are kept; ``skill`` is the fitted skill that
+    ``rep`` places (its segments in their objects' frames). ``blend_s``: the junction (the last target
+    of segment s − 1 vs the shifted start of s) fades out over this many seconds of segment s
+    (None: over the whole segment); provisional: per segment of the skill, as in :func:`place_skill`
+    (for the segments after s; segment s itself is observed now)."""
+    if not 0 < s < len(skill.segments):
+        raise ValueError(f"reanchor_segment: segment {s} out of range 1..{len(skill.segments) - 1}")
+    obj = skill.segments[s].anchor
+    if not obj:
+        raise ValueError(f"reanchor_segment: segment {s} is not anchored to an object")
+    placed = rep.segments
+    shift = np.asarray(position, dtype=np.float64).reshape(3) - placed[s].anchor_pose[:3]
+    poses: list[Array | None] = []
+    for k in range(s, len(placed)):
+        anchor = skill.segments[k].anchor
+        if not anchor:
+            poses.append(None)
+            continue
+        pose = np.asarray(placed[k].anchor_pose, dtype=np.float64).copy()
+        if anchor == obj:
+            pose[:3] += shift
+        poses.append(pose)
+    prev = placed[s - 1]
+    junction = np.concatenate([prev.nodes[-1], prev.orientations[-1]])
+    rest = place_skill(
+        FittedSkill(tuple(skill.segments[s:])),
+        robot_pose=junction,
+        params_for=lambda k: params_for(k + s),
+        resolve=resolve,
+        anchor_poses=poses,
+        start_window=blend_s,
+        provisional=None if provisional is None else [False, *list(provisional)[s + 1 :]],
+    )
+    return Reproduction((*placed[:s], *rest.segments))
+
+
+def _blend_start_orientation(seg: SegmentMaps, q_start: Array, start_window: float | None = None) -> Array:
+    """Orientations rotated by ``(1-u)`` of the rotation from the first node's to ``q_start`` (faded
+    over ``start_window`` seconds instead, when given)."""
+    q0 = seg.orientations[0]
+    q_start = quat_normalize(q_start)
+    if np.dot(q_start, q0) < 0:
+        q_start = -q_start
+    delta = quat_to_rotvec(quat_multiply(q_start, quat_conjugate(q0)))
+    t = seg.node_times
+    span = t[-1] - t[0]
+    u = (t - t[0]) / span if span > 0 else np.linspace(0.0, 1.0, len(t))
+    fade = 1.0 - u
+    if start_window is not None and start_window < span:
+        fade = np.clip(1.0 - (t - t[0]) / max(start_window, 1e-9), 0.0, 1.0)
+    rot = rotvec_to_quat(fade[:, None] * delta[None, :])
+    return quat_normalize(quat_multiply(rot, seg.orientations))

@@ -1,0 +1,205 @@
+"""Segment -> anchor -> per-segment force-constrained maps, on synthetic presses with known forces."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from lerobot_forcemap.skill.fit import episode_streams, fit_skill, segment_episode, segmentation_config
+from lerobot_forcemap.skill.placement import place_skill
+from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+
+from .helpers import OBJECT_NAMES, press_episode
+
+K_DEMO = 2000.0  # the controller stiffness behind the synthetic demonstrations
+DEPTH = 0.02  # target depth below the surface while holding: F = K_DEMO * DEPTH = 40 N
+
+
+def _fit(episodes, **kw):
+    cfg = ForceMapConfig(device="cpu", **{"segments": "dataset", **kw})
+    return fit_skill(episodes, cfg, 20.0, OBJECT_NAMES) + (cfg,)
+
+
+@pytest.mark.parametrize("k", [2500.0, 3000.0, 5000.0])
+def test_contact_nodes_lift_by_force_over_stiffness(k):
+    skill, report, _ = _fit([press_episode(0, depth=DEPTH, K=K_DEMO)], stiffness=k)
+    ref, _, _ = _fit([press_episode(0, depth=DEPTH, K=K_DEMO)], stiffness=1e12)
+    hold = 2  # approach, descend, hold, retreat
+    lift = skill.segments[hold].nodes[:, 2].min() - ref.segments[hold].nodes[:, 2].min()
+    assert lift == pytest.approx(K_DEMO * DEPTH / k, rel=0.02)
+    assert report.summary()[hold]["capped_nodes"] == 0
+    # the approach never touched: bit-identical with and without force points
+    np.testing.assert_array_equal(skill.segments[0].nodes, ref.segments[0].nodes)
+
+
+def test_segments_near_the_object_are_stored_in_its_frame():
+    obj = np.array([0.55, -0.02, 0.04])
+    skill, report, _ = _fit([press_episode(0, obj=obj)], stiffness=1e12, anchor_radius=0.04)
+    assert report.anchors == ("", "box", "box", "box")  # the approach ends 5 cm above the box
+    hold = skill.segments[2]
+    # object frame: the hold sits DEPTH below the object's origin, right above it
+    np.testing.assert_allclose(hold.nodes[:, :2], 0.0, atol=1e-9)
+    assert hold.nodes[:, 2].min() == pytest.approx(-DEPTH, abs=1e-4)
+    np.testing.assert_allclose(hold.anchor_pose[:3], obj)
+    # the free approach is in the base frame and starts at the demonstrated start
+    np.testing.assert_allclose(skill.segments[0].nodes[0], [0.4, 0.0, 0.15], atol=2e-3)
+
+
+def test_several_demonstrations_are_mapped_together_in_the_object_frame():
+    a = press_episode(0, obj=(0.50, 0.00, 0.03), depth=0.015)
+    b = press_episode(1, obj=(0.53, 0.02, 0.03), depth=0.025)
+    skill, report, _ = _fit([a, b], stiffness=1e12)
+    assert report.episodes == (0, 1) and len(report.changepoints) == 2
+    # object-relative holds at -15 and -25 mm, at different base positions: one map in the box frame,
+    # on its axis and halfway between the two depths (each demonstration alone gives its own depth)
+    hold = skill.segments[2].nodes
+    np.testing.assert_allclose(hold[:, :2], 0.0, atol=1e-9)
+    assert hold[:, 2].min() == pytest.approx(-0.020, abs=1e-4)
+    for ep, depth in ((a, 0.015), (b, 0.025)):
+        one, _, _ = _fit([ep], stiffness=1e12)
+        assert one.segments[2].nodes[:, 2].min() == pytest.approx(-depth, abs=1e-4)
+    # without anchors (base frame) the two holds, 36 mm apart, spread the map's hold sideways
+    base, report, _ = _fit([a, b], stiffness=1e12, anchor_radius=1e-9)
+    assert report.anchors == ("", "", "", "")
+    xy = base.segments[2].nodes[:, :2]
+    assert np.max(np.linalg.norm(xy - xy[0], axis=1)) > 0.02
+
+
+def test_segment_counts_must_agree():
+    a = press_episode(0)
+    b = press_episode(1)
+    b = type(b)(**{**b.__dict__, "segment_labels": np.minimum(b.segment_labels, 2)})
+    with pytest.raises(ValueError, match=r"segment counts differ .*episode 0: 4, episode 1: 3"):
+        _fit([a, b])
+
+
+def test_auto_segment_counts_must_agree():
+    """Segmented by the policy itself (segments='auto'): one press gives 3 segments, the same press done
+    twice gives 5; mapping them together is refused by name, not silently aligned."""
+    one = press_episode(0)
+    twice = dataclasses.replace(
+        one,
+        episode=1,
+        times=np.arange(2 * one.n_frames) / 20.0,
+        **{f: np.concatenate([getattr(one, f)] * 2) for f in ("pose", "force", "gripper", "env_state")},
+        segment_labels=None,
+    )
+    assert len(_fit([twice], segments="auto")[0].segments) == 5
+    with pytest.raises(ValueError, match=r"segment counts differ .*episode 0: 3, episode 1: 5"):
+        _fit([one, twice], segments="auto")
+
+
+def test_per_segment_override_changes_that_segment_only():
+    base, _, _ = _fit([press_episode(0)], stiffness=3000.0)
+    over, _, _ = _fit([press_episode(0)], stiffness=3000.0, segment_overrides={2: {"stiffness": 6000.0}})
+    np.testing.assert_array_equal(base.segments[1].nodes, over.segments[1].nodes)
+    lift_base = base.segments[2].nodes[:, 2].min() + DEPTH
+    lift_over = over.segments[2].nodes[:, 2].min() + DEPTH
+    assert lift_over == pytest.approx(lift_base / 2, rel=0.02)
+
+
+def test_space_time_map_keeps_a_retracing_segment_in_order():
+    """One segment that goes down and back up: the 3-D map mixes the passes, the space-time map does not."""
+    ep = press_episode(0)
+    err = {}
+    for v in (0.0, 0.05):
+        skill, _, cfg = _fit([ep], segments="none", stiffness=1e12, time_scale=v)
+        rep = place_skill(
+            skill, robot_pose=None, object_pose=skill.demo_object_poses(), params_for=cfg.segment_params
+        )
+        d = np.linalg.norm(rep.actions_at(ep.times)[:, :3] - ep.pose[:, :3], axis=1)
+        err[v] = float(np.sqrt(np.mean(d**2)))
+    assert err[0.05] < 0.003  # follows the demonstration within 3 mm RMS
+    assert err[0.0] > 10 * err[0.05]
+
+
+def test_dataset_labels_become_changepoints_and_bad_labels_are_named():
+    ep = press_episode(0)
+    cfg = ForceMapConfig(device="cpu", segments="dataset")
+    cp = segment_episode(ep, cfg, 20.0)
+    np.testing.assert_array_equal(cp, [0, 40, 60, 80, ep.n_frames])
+    bad = type(ep)(
+        **{**ep.__dict__, "segment_labels": np.where(np.arange(ep.n_frames) == 50, 3, ep.segment_labels)}
+    )
+    with pytest.raises(ValueError, match="'segment_index', episode 0, frame 50"):
+        segment_episode(bad, cfg, 20.0)
+    none = type(ep)(**{**ep.__dict__, "segment_labels": None})
+    with pytest.raises(ValueError, match="no 'segment_index' column"):
+        segment_episode(none, cfg, 20.0)
+
+
+def test_a_label_on_the_last_frame_only_ends_the_previous_segment(caplog):
+    """A recorder that stops on success logs its "done" phase on the last frame only (the grasp datasets'
+    ``demo_phase``): that frame closes the previous segment instead of being a 1-frame segment."""
+    ep = press_episode(0)
+    labels = ep.segment_labels.copy()
+    labels[-1] = labels[-2] + 1
+    last = type(ep)(**{**ep.__dict__, "segment_labels": labels})
+    cfg = ForceMapConfig(device="cpu", segments="dataset")
+    with caplog.at_level("WARNING"):
+        cp = segment_episode(last, cfg, 20.0)
+    np.testing.assert_array_equal(cp, [0, 40, 60, 80, ep.n_frames])
+    assert f"label 4 occurs on the last frame ({ep.n_frames - 1}) only" in caplog.text
+    skill, _ = fit_skill([last], cfg, 20.0, OBJECT_NAMES)
+    assert skill.n_segments == 4
+
+
+def test_segmentation_window_scales_with_fps():
+    cfg = ForceMapConfig(device="cpu")
+    assert segmentation_config(cfg, 166.0).window == 64  # the authors' setting at their rate
+    assert segmentation_config(cfg, 166.0).grace == 4
+    assert segmentation_config(cfg, 20.0).window == 8
+    assert segmentation_config(cfg, 5.0).window == 5  # Savitzky-Golay order 4 needs >= 5
+    cp = segment_episode(press_episode(0), ForceMapConfig(device="cpu", segments="auto"), 20.0)
+    assert cp[0] == 0 and cp[-1] == press_episode(0).n_frames and len(cp) >= 2
+
+
+def test_changepoints_dropped_by_min_segment_s_are_reported(caplog):
+    ep = press_episode(0)
+    found = segment_episode(ep, ForceMapConfig(device="cpu"), 20.0)
+    assert len(found) > 2  # the press demo has changepoints to lose
+    with caplog.at_level("WARNING"):
+        # longer than the demo (4.3 s): no changepoint can stay
+        cp = segment_episode(ep, ForceMapConfig(device="cpu", min_segment_s=2.5), 20.0)
+    assert cp.tolist() == [0, ep.n_frames]
+    assert (
+        f"episode 0: min_segment_s=2.5 (50 frames) dropped the changepoint(s) at frame(s) {found[1:-1].tolist()}; "
+        f"kept [0, {ep.n_frames}]" in caplog.text
+    )
+
+
+def test_a_set_weight_for_a_stream_the_dataset_lacks_is_reported(caplog):
+    ep = press_episode(0)  # the press demonstrations have no finger forces
+    assert ep.finger_force is None
+    with caplog.at_level("WARNING"):
+        episode_streams(ep, ForceMapConfig(device="cpu"))  # the default weight: skipped quietly
+    assert "stream_weights" not in caplog.text
+    with caplog.at_level("WARNING"):
+        streams = episode_streams(ep, ForceMapConfig(device="cpu", stream_weights={"finger_force": 5.0}))
+    assert "finger_force" not in [s.name for s in streams]
+    assert (
+        "episode 0: stream_weights['finger_force']=5 is set, but the dataset has no 'observation.finger_force' "
+        "feature for it" in caplog.text
+    )
+
+
+def test_a_fit_stopped_at_max_iter_is_reported(caplog):
+    with caplog.at_level("WARNING"):
+        _, report, _ = _fit([press_episode(0, depth=DEPTH, K=K_DEMO)], max_iter=1)
+    stopped = [r["segment"] for r in report.summary() if r["stop_reason"] == "max_iter"]
+    assert stopped  # one EM iteration does not converge on these segments
+    for s in stopped:
+        assert f"segment {s}: the arm map's EM stopped at max_iter=1 without converging" in caplog.text
+        step, spring = report.summary()[s]["last_step"], report.summary()[s]["last_spring_step"]
+        assert step > 0 and spring >= 0
+        assert (
+            f"nodes still moved up to {step:.3g} and spring lengths up to {spring:.3g} in the last"
+            in caplog.text
+        )
+        assert "where the stop test needs both <= " in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING"):
+        _fit([press_episode(0, depth=DEPTH, K=K_DEMO)])
+    assert "without converging" not in caplog.text
