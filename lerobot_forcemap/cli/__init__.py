@@ -109,6 +109,3 @@ def _network_errors() -> tuple[type[BaseException], ...]:
         return ()
     return (httpx.HTTPError,)
 
-
-if __name__ == "__main__":
-    sys.exit(cli())

@@ -47,7 +47,7 @@ def test_an_offline_hub_is_one_line_too(capsys, monkeypatch):
 
     monkeypatch.setattr(huggingface_hub.constants, "HF_HUB_OFFLINE", True)
     monkeypatch.delenv(TRACEBACK_ENV, raising=False)
-    dataset = Path(__file__).resolve().parents[1] / "datasets" / "press"
+    dataset = Path(__file__).resolve().parents[2] / "datasets" / "press"
     assert cli(["push", "--dataset", str(dataset), "--repo-id", "someone/press-demos"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("forcemap push: error:") and "offline mode" in err
@@ -64,7 +64,7 @@ def test_an_unreachable_hub_is_one_line_too(capsys, monkeypatch):
 
     monkeypatch.setattr(push, "push_dataset", unreachable)
     monkeypatch.delenv(TRACEBACK_ENV, raising=False)
-    dataset = Path(__file__).resolve().parents[1] / "datasets" / "press"
+    dataset = Path(__file__).resolve().parents[2] / "datasets" / "press"
     assert cli(["push", "--dataset", str(dataset), "--repo-id", "someone/press-demos"]) == 2
     err = capsys.readouterr().err
     assert err.startswith(
@@ -75,7 +75,7 @@ def test_an_unreachable_hub_is_one_line_too(capsys, monkeypatch):
 
 def test_a_bad_fit_setting_is_one_line_naming_the_field(tmp_path, capsys, monkeypatch):
     monkeypatch.delenv(TRACEBACK_ENV, raising=False)
-    dataset = Path(__file__).resolve().parents[1] / "datasets" / "press"
+    dataset = Path(__file__).resolve().parents[2] / "datasets" / "press"
     assert cli(["fit", "--dataset", str(dataset), "--out", str(tmp_path / "o"), "--set", "stiffness=-5"]) == 2
     err = capsys.readouterr().err
     # one line naming the flag it came from; the config's log line (for lerobot-train) is not repeated
@@ -97,7 +97,7 @@ def test_warnings_are_lines_naming_the_command_not_our_source(tmp_path, capsys, 
 
     monkeypatch.setattr(fit, "fit_policy", warn_then_refuse)
     monkeypatch.delenv(TRACEBACK_ENV, raising=False)
-    dataset = Path(__file__).resolve().parents[1] / "datasets" / "press"
+    dataset = Path(__file__).resolve().parents[2] / "datasets" / "press"
     with warnings.catch_warnings():
         warnings.simplefilter("always")
         # printed to stderr through formatwarning, as outside pytest (whose recorder bypasses both)

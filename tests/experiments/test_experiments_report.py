@@ -161,7 +161,7 @@ def test_learned_records_show_lerobot_evals_success(tmp_path):
 
 
 def test_learned_section_names_the_seeds_lerobot_eval_judged_otherwise(tmp_path):
-    import analysis
+    from experiments.paper import analysis
 
     seeds = list(range(1000, 1004))
     for method, ran_ok in (("act", [True, False, True, False]), ("diffusion", [False, False, True, True])):
