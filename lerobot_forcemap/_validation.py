@@ -44,6 +44,8 @@ _MAX_REPR = 80
 def _show(value: object) -> str:
     if isinstance(value, np.ndarray) and value.size > 8:
         return f"an array of shape {value.shape} ({value.dtype})"
+    if isinstance(value, np.generic):  # "nan", not "np.float64(nan)"
+        value = value.item()
     text = repr(value)
     return text if len(text) <= _MAX_REPR else text[: _MAX_REPR - 3] + "..."
 
@@ -67,11 +69,14 @@ def is_real(value: object) -> bool:
 
 
 def _bounds_text(low: float | None, high: float | None, low_open: bool, high_open: bool) -> str:
+    def show(v: float) -> str:  # an int bound as written ("1000000"), a float in short form ("1e+150")
+        return str(v) if is_int(v) else f"{v:g}"
+
     parts = []
     if low is not None:
-        parts.append(f"{'>' if low_open else '>='} {low:g}")
+        parts.append(f"{'>' if low_open else '>='} {show(low)}")
     if high is not None:
-        parts.append(f"{'<' if high_open else '<='} {high:g}")
+        parts.append(f"{'<' if high_open else '<='} {show(high)}")
     return " and ".join(parts)
 
 
@@ -180,7 +185,8 @@ def check_finite(name: str, array: np.ndarray, *, axes: Iterable[str] = ("frame"
     if bad.any():
         index = first_bad_index(bad)
         where = ", ".join(f"{axis} {i}" for axis, i in zip(axes, index, strict=False))
-        fail(name, f"hold finite values only (the first bad one is at {where})", array[index])
+        what = f"hold finite values only (the first bad one is at {where})" if where else "be finite"
+        fail(name, what, array[index])
     return array
 
 
@@ -215,7 +221,12 @@ def check_array(
         array.ndim != len(shape)
         or any(s is not None and s != n for s, n in zip(shape, array.shape, strict=True))
     ):
-        want = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
+        want = (
+            "("
+            + ", ".join("any" if s is None else str(s) for s in shape)
+            + ("," if len(shape) == 1 else "")
+            + ")"
+        )
         fail(name, f"have shape {want}, got shape {array.shape}")
     if array.ndim and array.shape[0] < min_len:
         fail(name, f"hold at least {min_len} entries along its first axis, got shape {array.shape}")
