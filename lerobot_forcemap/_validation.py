@@ -31,6 +31,7 @@ __all__ = [
     "check_str",
     "check_choice",
     "check_int_list",
+    "check_int_array",
     "check_array",
     "check_finite",
     "first_bad_index",
@@ -97,9 +98,9 @@ def check_int(
     """``value`` as an ``int`` in ``[low, high]`` (either bound optional); ``None`` passes when ``none_ok``."""
     if value is None and none_ok:
         return None
-    bounds = _bounds_text(low, high, False, False)
-    what = "be an integer" + (f" {bounds}" if bounds else "") + (" or None" if none_ok else "")
     if not is_int(value) or not _in_bounds(int(value), low, high, False, False):
+        bounds = _bounds_text(low, high, False, False)  # only on failure: these run on every call
+        what = "be an integer" + (f" {bounds}" if bounds else "") + (" or None" if none_ok else "")
         fail(name, what, value)
     return int(value)
 
@@ -121,15 +122,15 @@ def check_real(
     """
     if value is None and none_ok:
         return None
-    bounds = _bounds_text(low, high, low_open, high_open)
-    what = "be a finite number" + (f" {bounds}" if bounds else "") + (f" {unit}" if unit else "")
-    what += " or None" if none_ok else ""
-    if not is_real(value) or not math.isfinite(float(value)):
-        fail(name, what, value)
-    v = float(value)
-    if not _in_bounds(v, low, high, low_open, high_open):
-        fail(name, what, value)
-    return v
+    if (
+        not is_real(value)
+        or not math.isfinite(float(value))
+        or not _in_bounds(float(value), low, high, low_open, high_open)
+    ):
+        bounds = _bounds_text(low, high, low_open, high_open)  # only on failure
+        what = "be a finite number" + (f" {bounds}" if bounds else "") + (f" {unit}" if unit else "")
+        fail(name, what + (" or None" if none_ok else ""), value)
+    return float(value)
 
 
 def check_bool(name: str, value: object) -> bool:
@@ -171,6 +172,28 @@ def check_int_list(
     if distinct and len(set(out)) != len(out):
         fail(name, "hold distinct values", value)
     return out
+
+
+def check_int_array(name: str, value: object, *, low: int | None = None) -> np.ndarray:
+    """``value`` as a flat int64 array of whole numbers ``>= low`` (an integer array, or floats that are
+    whole); vectorised, for arrays of frame indices. The first bad entry is named by its index."""
+    try:
+        array = np.asarray(value)
+    except (TypeError, ValueError):
+        array = None
+    if array is None or array.dtype.kind not in "iuf":
+        fail(name, "be an array of integers", value)
+    array = array.reshape(-1)
+    if array.dtype.kind == "f":
+        whole = np.isfinite(array) & (array == np.floor(array))
+        if not whole.all():
+            (index,) = first_bad_index(~whole)
+            fail(name, f"hold whole numbers only (the first bad one is at index {index})", array[index])
+    array = array.astype(np.int64, copy=False)
+    if low is not None and (array < low).any():
+        (index,) = first_bad_index(array < low)
+        fail(name, f"hold integers >= {low} (the first bad one is at index {index})", array[index])
+    return array
 
 
 def first_bad_index(mask: np.ndarray) -> tuple[int, ...]:
