@@ -29,7 +29,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.linalg import lapack
 
-from .._validation import check_array, check_int_list, check_real, fail
+from .._validation import check_array, check_int_array, check_int_list, check_real, fail
 from .constraints import ResolvedConstraints
 
 __all__ = [
@@ -321,9 +321,9 @@ def _check_extra(extra: object, n: int, d: int) -> None:
     if not isinstance(extra, InequalityRows):
         fail("extra", f"be InequalityRows or None, got {type(extra).__name__}")
     k = len(extra)
-    nodes = check_int_list("extra.node", extra.node, low=0, non_empty=False)
-    if nodes and max(nodes) >= n:
-        fail("extra.node", f"hold node indices below N = {n}", max(nodes))
+    nodes = check_int_array("extra.node", extra.node, low=0)
+    if nodes.shape != (k,) or (k and nodes.max() >= n):
+        fail("extra.node", f"hold {k} node indices below N = {n}", nodes.tolist())
     check_array("extra.normals", extra.normals, shape=(k, d), axes=("row", "axis"))
     check_array("extra.lower", extra.lower, shape=(k,), axes=("row",))
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import find_peaks
 
-from .._validation import check_array, check_int, check_int_list, check_real, fail
+from .._validation import check_array, check_int, check_int_array, check_real, fail
 from .config import MAX_SAMPLE_DRAWS
 
 #: how far the sum of a pmf may be from 1 (numpy's own test in Generator.choice is sqrt(eps))
@@ -93,7 +93,7 @@ def enforce_min_segment_length(
     """
     n_frames = check_int("n_frames", n_frames, low=1)
     min_length = check_int("min_length", min_length, low=1)
-    candidates = np.asarray(check_int_list("candidates", candidates, non_empty=False), dtype=np.int64)
+    candidates = check_int_array("candidates", candidates)
     strength = check_array("strength", strength, shape=candidates.shape, axes=("candidate",))
     return _min_segment_length(candidates, strength, n_frames, min_length)
 

@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from .._validation import check_array, check_choice, check_int, check_int_list, check_real, fail
+from .._validation import check_array, check_choice, check_int, check_int_array, check_real, fail
 from .config import MAX_FRAMES, MIN_SIGMA, MODES, Mode
 
 GAUSS_RADIUS_SIGMAS = 8.0  # Gaussians are cut at ±8σ: the dropped tail is below 1.3e-14 of the peak
@@ -44,7 +44,7 @@ def stream_pmf(keypoints: np.ndarray, n_frames: int, sigma: float, floor: float)
     n_frames = check_int("n_frames", n_frames, low=1, high=MAX_FRAMES)
     sigma = check_real("sigma", sigma, low=MIN_SIGMA, unit="samples")
     floor = check_real("floor", floor, low=0.0, low_open=True)
-    keypoints = np.asarray(check_int_list("keypoints", keypoints, non_empty=False), dtype=np.int64)
+    keypoints = check_int_array("keypoints", keypoints)
     if keypoints.size and (keypoints.min() < 0 or keypoints.max() >= n_frames):
         fail("keypoints", f"be frames in [0, {n_frames}), got {keypoints.min()}..{keypoints.max()}")
     return _stream_pmf(keypoints, n_frames, sigma, floor)
@@ -76,7 +76,7 @@ def combine_pmfs(
     pmfs and floor_levels (n,) > 0 (as `stream_pmf` makes them); weights >= 0, at least one > 0;
     streams with weight 0 are left out. mode one of MODES.
     """
-    pmfs = check_array("pmfs", pmfs, ndim=2, min_len=1, axes=("stream", "frame"))
+    pmfs = check_array("pmfs", pmfs, ndim=2, min_len=1, finite=False)
     n = pmfs.shape[0]
     floor_levels = check_array("floor_levels", floor_levels, shape=(n,), axes=("stream",))
     weights = check_array("weights", weights, shape=(n,), axes=("stream",))
@@ -87,8 +87,14 @@ def combine_pmfs(
             "weights",
             "give at least one stream a weight > 0 (a stream of weight 0 is left out), got all zero",
         )
-    if not ((pmfs > 0).all() and (floor_levels > 0).all()):
-        fail("pmfs", "hold values > 0 with floor_levels > 0 (as stream_pmf makes them)")
+    # two reductions instead of element masks (NaN fails the first): the values go through log()
+    low, high = float(pmfs.min()), float(pmfs.max())
+    if not (low > 0 and math.isfinite(high) and (floor_levels > 0).all()):
+        fail(
+            "pmfs",
+            "hold finite values > 0 with floor_levels > 0 (as stream_pmf makes them), got values in "
+            f"[{low:g}, {high:g}]",
+        )
     return _combine(pmfs, floor_levels, weights, check_choice("mode", mode, MODES))
 
 

@@ -51,7 +51,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import check_array, check_choice, check_int_list, check_real, fail
+from .._validation import check_array, check_choice, check_int_array, check_real, fail
 
 EVENT_KINDS: tuple[str, ...] = ("close", "open", "contact")
 
@@ -323,7 +323,7 @@ def merge_events(frames: np.ndarray, within: float) -> np.ndarray:
     boundaries closer than its own resolution.
     """
     within = check_real("within", within, low=0.0)
-    f = np.sort(np.asarray(check_int_list("frames", frames, non_empty=False), dtype=np.int64))
+    f = np.sort(check_int_array("frames", frames))
     if f.size == 0:
         return f
     group = np.concatenate(([0], np.cumsum(np.diff(f) > within)))

@@ -186,6 +186,15 @@ def test_a_gaussian_wider_than_the_demo_is_cut_at_its_length() -> None:
     ("args", "message"),
     [
         ((np.array([5]), 0, SIGMA, 1.0), "^n_frames: must be an integer >= 1 and <= 100000000, got 0"),
+        # a fractional or NaN keypoint was truncated to some frame
+        (
+            (np.array([5.5]), T, SIGMA, 1.0),
+            r"^keypoints: must hold whole numbers only \(the first bad one is at index 0\), got 5.5",
+        ),
+        (
+            (np.array([3.0, np.nan]), T, SIGMA, 1.0),
+            r"^keypoints: must hold whole numbers only \(the first bad one is at index 1\), got nan",
+        ),
         # 10**12 frames ran into a MemoryError
         (
             (np.array([5]), 10**12, SIGMA, 1.0),
