@@ -5,7 +5,7 @@
 The inequality path (``force_limit`` half-spaces, a floor half-space) on the shipped press, erase and
 peg-in-hole demonstrations (wrist position and force), plus the audit's demo at rest under a binding
 box. Every M-step a fit makes is recorded once (its cluster sums and constraint rows), then replayed
-through ``solve_m_step_clarabel`` with ``polish=False`` (Clarabel's interior-point answer) and
+through ``clarabel_m_step`` with ``polish=False`` (Clarabel's interior-point answer) and
 ``polish=True`` (the same, refined to the exact minimiser): median time per M-step over --repeats
 replays, their ratio, and the largest node difference between the two answers.
 """
@@ -22,7 +22,7 @@ import pandas as pd
 
 import lerobot_forcemap.elmap.fit as fit_module
 from lerobot_forcemap.elmap import Constraints, fit_force_elastic_map
-from lerobot_forcemap.elmap.solve import solve_m_step_clarabel
+from lerobot_forcemap.elmap.mstep import clarabel_m_step
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -33,13 +33,13 @@ def recorded_m_steps(fit_kwargs: dict) -> list[tuple]:
 
     def record(*args, **kwargs):
         calls.append((args, kwargs))
-        return solve_m_step_clarabel(*args, **kwargs)
+        return clarabel_m_step(*args, **kwargs)
 
-    fit_module.solve_m_step_clarabel = record
+    fit_module.clarabel_m_step = record
     try:
         fit_force_elastic_map(**fit_kwargs)
     finally:
-        fit_module.solve_m_step_clarabel = solve_m_step_clarabel
+        fit_module.clarabel_m_step = clarabel_m_step
     return calls
 
 
@@ -89,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
             times = []
             for _ in range(args.repeats):
                 t0 = time.perf_counter()
-                nodes = [solve_m_step_clarabel(*a, **{**k, "polish": polish}) for a, k in calls]
+                nodes = [clarabel_m_step(*a, **{**k, "polish": polish}) for a, k in calls]
                 times.append((time.perf_counter() - t0) / len(calls))
             per_mode[polish] = (float(np.median(times)), nodes)
         change = max(

@@ -31,6 +31,7 @@ __all__ = [
     "check_str",
     "check_choice",
     "check_int_list",
+    "check_int_array",
     "check_array",
     "check_finite",
     "first_bad_index",
@@ -44,6 +45,8 @@ _MAX_REPR = 80
 def _show(value: object) -> str:
     if isinstance(value, np.ndarray) and value.size > 8:
         return f"an array of shape {value.shape} ({value.dtype})"
+    if isinstance(value, np.generic):  # "nan", not "np.float64(nan)"
+        value = value.item()
     text = repr(value)
     return text if len(text) <= _MAX_REPR else text[: _MAX_REPR - 3] + "..."
 
@@ -67,11 +70,14 @@ def is_real(value: object) -> bool:
 
 
 def _bounds_text(low: float | None, high: float | None, low_open: bool, high_open: bool) -> str:
+    def show(v: float) -> str:  # an int bound as written ("1000000"), a float in short form ("1e+150")
+        return str(v) if is_int(v) else f"{v:g}"
+
     parts = []
     if low is not None:
-        parts.append(f"{'>' if low_open else '>='} {low:g}")
+        parts.append(f"{'>' if low_open else '>='} {show(low)}")
     if high is not None:
-        parts.append(f"{'<' if high_open else '<='} {high:g}")
+        parts.append(f"{'<' if high_open else '<='} {show(high)}")
     return " and ".join(parts)
 
 
@@ -92,9 +98,9 @@ def check_int(
     """``value`` as an ``int`` in ``[low, high]`` (either bound optional); ``None`` passes when ``none_ok``."""
     if value is None and none_ok:
         return None
-    bounds = _bounds_text(low, high, False, False)
-    what = "be an integer" + (f" {bounds}" if bounds else "") + (" or None" if none_ok else "")
     if not is_int(value) or not _in_bounds(int(value), low, high, False, False):
+        bounds = _bounds_text(low, high, False, False)  # only on failure: these run on every call
+        what = "be an integer" + (f" {bounds}" if bounds else "") + (" or None" if none_ok else "")
         fail(name, what, value)
     return int(value)
 
@@ -116,15 +122,15 @@ def check_real(
     """
     if value is None and none_ok:
         return None
-    bounds = _bounds_text(low, high, low_open, high_open)
-    what = "be a finite number" + (f" {bounds}" if bounds else "") + (f" {unit}" if unit else "")
-    what += " or None" if none_ok else ""
-    if not is_real(value) or not math.isfinite(float(value)):
-        fail(name, what, value)
-    v = float(value)
-    if not _in_bounds(v, low, high, low_open, high_open):
-        fail(name, what, value)
-    return v
+    if (
+        not is_real(value)
+        or not math.isfinite(float(value))
+        or not _in_bounds(float(value), low, high, low_open, high_open)
+    ):
+        bounds = _bounds_text(low, high, low_open, high_open)  # only on failure
+        what = "be a finite number" + (f" {bounds}" if bounds else "") + (f" {unit}" if unit else "")
+        fail(name, what + (" or None" if none_ok else ""), value)
+    return float(value)
 
 
 def check_bool(name: str, value: object) -> bool:
@@ -168,6 +174,28 @@ def check_int_list(
     return out
 
 
+def check_int_array(name: str, value: object, *, low: int | None = None) -> np.ndarray:
+    """``value`` as a flat int64 array of whole numbers ``>= low`` (an integer array, or floats that are
+    whole); vectorised, for arrays of frame indices. The first bad entry is named by its index."""
+    try:
+        array = np.asarray(value)
+    except (TypeError, ValueError):
+        array = None
+    if array is None or array.dtype.kind not in "iuf":
+        fail(name, "be an array of integers", value)
+    array = array.reshape(-1)
+    if array.dtype.kind == "f":
+        whole = np.isfinite(array) & (array == np.floor(array))
+        if not whole.all():
+            (index,) = first_bad_index(~whole)
+            fail(name, f"hold whole numbers only (the first bad one is at index {index})", array[index])
+    array = array.astype(np.int64, copy=False)
+    if low is not None and (array < low).any():
+        (index,) = first_bad_index(array < low)
+        fail(name, f"hold integers >= {low} (the first bad one is at index {index})", array[index])
+    return array
+
+
 def first_bad_index(mask: np.ndarray) -> tuple[int, ...]:
     """Index of the first ``True`` entry of a boolean array (row-major), as a tuple of ints."""
     flat = int(np.argmax(np.asarray(mask).reshape(-1)))
@@ -180,7 +208,8 @@ def check_finite(name: str, array: np.ndarray, *, axes: Iterable[str] = ("frame"
     if bad.any():
         index = first_bad_index(bad)
         where = ", ".join(f"{axis} {i}" for axis, i in zip(axes, index, strict=False))
-        fail(name, f"hold finite values only (the first bad one is at {where})", array[index])
+        what = f"hold finite values only (the first bad one is at {where})" if where else "be finite"
+        fail(name, what, array[index])
     return array
 
 
@@ -215,7 +244,12 @@ def check_array(
         array.ndim != len(shape)
         or any(s is not None and s != n for s, n in zip(shape, array.shape, strict=True))
     ):
-        want = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
+        want = (
+            "("
+            + ", ".join("any" if s is None else str(s) for s in shape)
+            + ("," if len(shape) == 1 else "")
+            + ")"
+        )
         fail(name, f"have shape {want}, got shape {array.shape}")
     if array.ndim and array.shape[0] < min_len:
         fail(name, f"hold at least {min_len} entries along its first axis, got shape {array.shape}")

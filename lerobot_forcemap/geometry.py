@@ -2,12 +2,19 @@
 
 Convention everywhere in the project: unit quaternions scalar first, ``q = (w, x, y, z)``
 (MuJoCo's order). The lab recorder stores ``(x, y, z, w)``: convert with :func:`xyzw_to_wxyz`.
+Rotations act on column vectors in a right-handed frame (``quat_rotate(q, v) = R(q) @ v``); rotation
+vectors are axis × angle in radians.
+
+These run inside control loops, so they check only what would otherwise divide by zero or misalign
+(a zero quaternion, mismatched SLERP inputs); shapes follow NumPy broadcasting.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from ._validation import fail
 
 __all__ = [
     "xyzw_to_wxyz",
@@ -37,10 +44,11 @@ def wxyz_to_xyzw(q: ArrayLike) -> NDArray[np.float64]:
 
 
 def quat_normalize(q: ArrayLike) -> NDArray[np.float64]:
+    """Unit quaternions ``(..., 4)`` of quaternions of norm >= 1e-12."""
     q = np.asarray(q, dtype=float)
     n = np.linalg.norm(q, axis=-1, keepdims=True)
     if np.any(n < 1e-12):
-        raise ValueError("quaternion with (near) zero norm")
+        fail("q", "hold quaternions of norm >= 1e-12, got a (near) zero norm", float(np.min(n)))
     return q / n
 
 
@@ -179,7 +187,7 @@ def slerp_sequence(times: ArrayLike, quats: ArrayLike, query: ArrayLike) -> NDAr
     quats = quat_canonical_sequence(np.asarray(quats, dtype=float))
     query = np.atleast_1d(np.asarray(query, dtype=float))
     if times.ndim != 1 or quats.shape != (len(times), 4):
-        raise ValueError(f"times (T,) and quats (T, 4) expected, got {times.shape} and {quats.shape}")
+        fail("quats", f"have shape (T, 4) for times (T,), got {quats.shape} for {times.shape}")
     if len(times) == 1:
         return np.repeat(quats, len(query), axis=0)
     q = np.clip(query, times[0], times[-1])

@@ -56,5 +56,7 @@ def test_slerp_sequence_clamps_and_interpolates():
 
 
 def test_zero_quaternion_rejected():
-    with pytest.raises(ValueError, match="zero norm"):
+    with pytest.raises(
+        ValueError, match=r"^q: must hold quaternions of norm >= 1e-12, got a \(near\) zero norm"
+    ):
         g.quat_normalize([0, 0, 0, 0])

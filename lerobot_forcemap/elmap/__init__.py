@@ -1,11 +1,17 @@
-"""Force-constrained elastic maps (paper §III-B/C, SPEC §1). NumPy/SciPy/Clarabel, plus optional C loops
-for the EM's per-sample work (:mod:`.kernel`; the NumPy path is the reference): no LeRobot, torch or
-MuJoCo import here.
+"""Force-constrained elastic maps (``docs/elmap.md``). NumPy/SciPy/Clarabel, plus optional C loops for
+the EM's per-sample work (:mod:`.kernel`; the NumPy path is the reference): no LeRobot, torch or MuJoCo
+import here.
 
     from lerobot_forcemap.elmap import fit_force_elastic_map, Constraints, ElasticMapFit
+
+Modules: :mod:`.fit` (the EM fit and its result), :mod:`.inputs` (checking and stacking the fit's
+inputs), :mod:`.estep` (nearest-node assignment), :mod:`.mstep` (banded and Clarabel M-steps),
+:mod:`.weights` (force points and their weights), :mod:`.constraints`, :mod:`.timing` (time law and
+orientations), :mod:`.kernel` (the optional compiled loops).
 """
 
 from .constraints import Constraints, ResolvedConstraints, resolve_constraints
+from .estep import assign_nearest
 from .fit import (
     DEFAULT_DELTA,
     DEFAULT_F_CONTACT,
@@ -14,10 +20,10 @@ from .fit import (
     DEFAULT_STIFFNESS,
     ElasticMapFit,
     arc_length_resample,
-    assign_nearest,
     fit_force_elastic_map,
 )
-from .solve import (
+from .inputs import MAX_NODES
+from .mstep import (
     BandedMStep,
     EnergyTerms,
     InequalityRows,
@@ -61,4 +67,5 @@ __all__ = [
     "DEFAULT_DELTA",
     "DEFAULT_F_CONTACT",
     "DEFAULT_STIFFNESS",
+    "MAX_NODES",
 ]

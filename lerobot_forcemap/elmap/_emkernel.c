@@ -1,9 +1,9 @@
 /* Per-sample work of one elastic-map EM iteration, for lerobot_forcemap.elmap (loaded with ctypes).
 
-   The NumPy path in fit.py is the reference; this file does the same arithmetic in the same order
-   (sequential sums over samples, distances summed axis by axis, no FMA contraction) so that both
-   paths give the same numbers, and only removes the per-call overhead of NumPy on arrays of a few
-   thousand elements. Three entry points, all on C-contiguous float64 / int64 arrays:
+   The NumPy path (estep.py, NumpyEMSteps) is the reference; this file does the same arithmetic in
+   the same order (sequential sums over samples, distances summed axis by axis, no FMA contraction)
+   so that both paths give the same numbers, and only removes the per-call overhead of NumPy on
+   arrays of a few thousand elements. Three entry points, all on C-contiguous float64 / int64 arrays:
 
    fm_assign        exact nearest node of every sample (E-step): the bounds of NearestNodeAssigner
                     (a window of nodes along the map, Hamerly-style bounds loosened by the moves),

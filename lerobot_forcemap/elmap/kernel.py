@@ -3,9 +3,9 @@
 The package builds ``_emkernel`` when it is installed (an optional extension: with no C compiler the
 install goes on without it). :func:`load_em_kernel` returns ``None`` when it is missing, or when
 ``LEROBOT_FORCEMAP_NUMPY_EM=1`` asks for the NumPy path; :func:`~.fit.fit_force_elastic_map` then runs
-the NumPy E-step and sums, which are the reference: the C loops do the same arithmetic in the same
-order (tested to agree), they only drop NumPy's per-call overhead, which is what dominates on arrays
-of a few thousand samples.
+the NumPy E-step and sums (:class:`~.estep.NumpyEMSteps`), which are the reference: the C loops do
+the same arithmetic in the same order (tested to agree), they only drop NumPy's per-call overhead,
+which is what dominates on arrays of a few thousand samples.
 
     kernel = EMKernel(lib, points, scale)    # one per fit; owns the bounds and the work arrays
     labels = kernel.assign(nodes)            # E-step
@@ -84,10 +84,10 @@ def _ptr(a: np.ndarray) -> int:
 
 class EMKernel:
     """The C loops bound to one fit's samples ``points (M, d)``; ``scale`` is the data's extent.
-    Same interface as :class:`~.fit.NumpyEMSteps`, the reference it reproduces.
+    Same interface as :class:`~.estep.NumpyEMSteps`, the reference it reproduces.
 
     Its state is the last E-step: :meth:`assign` keeps the labels, the bounds (as
-    :class:`~.fit.NearestNodeAssigner` does, whose results it reproduces: exact nearest nodes, ties to
+    :class:`~.estep.NearestNodeAssigner` does, whose results it reproduces: exact nearest nodes, ties to
     the lowest index) and the nodes; :meth:`cluster_sums` and :meth:`force_sums` work on that
     assignment and those nodes. Arrays handed out are copies. Every array the C code touches lives
     as long as the kernel, so its address is taken once (ctypes converts plain ints fastest).

@@ -1,8 +1,10 @@
-"""Time law and orientation of a fitted map (SPEC §1 "Time law and orientation").
+"""Time law and orientation of a fitted map.
 
 Node i gets the mean normalised time of its cluster's demo samples, made non-decreasing and
 scaled to the segment's demo duration; nodes with empty clusters interpolate between their
-neighbours (with a single filled cluster, a demo that does not move, time is spread evenly). Orientations follow by SLERP of the demo orientations at those times.
+neighbours (with a single filled cluster, a demo that does not move, time is spread evenly).
+Orientations follow by SLERP of the demo orientations at those times. Building blocks of the fit:
+inputs are trusted.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Force points and their per-axis weights (SPEC §1 "Force points", "Well-posedness").
+"""Force points and their per-axis weights.
 
 For every sample whose force norm exceeds ``f_contact`` a force point ``p_j = x_j − δ·f̂_j`` is
 added just behind the contact surface (forces are the reaction on the robot, pointing away from
@@ -14,6 +14,9 @@ point of this update lifts the node by exactly ``F / k`` (as long as the cap bel
 Well-posedness: ignoring smoothness a node sits at ``x̄ + r/(1−r)·(x̄ − p̄)`` with
 ``r = Σ|w_force| / Σ w_demo`` over its cluster — unbounded as r → 1 and pulled *into* the surface for
 r > 1. We cap r at ``rho_max`` per node and axis by scaling that node's force weights, and report it.
+
+The functions here are the fit's building blocks and trust their inputs (the fit checked them);
+:func:`project_on_contact_normal`, a preprocessing step users call themselves, checks its own.
 """
 
 from __future__ import annotations
@@ -21,7 +24,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
+
+from .._validation import check_array, fail
 
 __all__ = [
     "ForcePoints",
@@ -198,17 +203,18 @@ class ForceNodeSums:
         return self.finish(self.raw(tied_node, spring_length), demo_weight_sum)
 
 
-def project_on_contact_normal(forces: Array, normal: Array) -> Array:
+def project_on_contact_normal(forces: ArrayLike, normal: ArrayLike) -> Array:
     """The size of each force's component along a known contact normal, as a reaction along ``+normal``.
 
-    forces (T, d), normal (d,) pointing away from the surface -> (T, d). For recordings whose sensor
-    also sees other forces (a kinesthetic teacher's hand on the tool, drag): it keeps what a sensor
-    between the contact and the arm would report along the normal, pointing away from the surface as
-    the force points assume, and drops the tangential part.
+    forces (T, d) finite, normal (d,) pointing away from the surface (any non-zero length) -> (T, d).
+    For recordings whose sensor also sees other forces (a kinesthetic teacher's hand on the tool,
+    drag): it keeps what a sensor between the contact and the arm would report along the normal,
+    pointing away from the surface as the force points assume, and drops the tangential part.
     """
-    n = np.asarray(normal, dtype=float)
+    n = check_array("normal", normal, ndim=1, min_len=1, axes=("axis",))
+    forces = check_array("forces", forces, shape=(None, len(n)), axes=("frame", "axis"))
     norm = np.linalg.norm(n)
     if norm == 0 or not np.isfinite(norm):
-        raise ValueError(f"normal: must be a finite non-zero vector, got {normal!r}")
+        fail("normal", "be a non-zero vector of finite length", n.tolist())
     n = n / norm
-    return np.abs(np.asarray(forces, dtype=float) @ n)[:, None] * n[None, :]
+    return np.abs(forces @ n)[:, None] * n[None, :]

@@ -1,4 +1,4 @@
-"""Multimodal probabilistic segmentation (paper §III-D, SPEC §2). NumPy/SciPy only (floor 1).
+"""Multimodal probabilistic segmentation (``docs/segmentation.md``). NumPy/SciPy only (floor 1).
 
     from lerobot_forcemap.segmentation import Stream, SegmentationConfig, segment_streams
     seg = segment_streams([Stream("wrist_force", f, t, weight=0.35, threshold=0.15), ...],

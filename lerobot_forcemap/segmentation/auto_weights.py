@@ -1,4 +1,4 @@
-"""Automatic, label-free stream weights (the paper's future work, SPEC §2).
+"""Automatic, label-free stream weights (the method's open question of how to weigh the streams).
 
 Criterion: the **jerk contrast** of each stream, the peak-to-baseline ratio of the very signal its
 keypoints are thresholded on, in nepers:
@@ -9,7 +9,7 @@ keypoints are thresholded on, in nepers:
 
 Why this one: thresholds are fractions of each stream's own maximum, so a keypoint means something
 only when the stream's typical level sits far below its peaks. A stream whose jerk is dominated by
-sensor noise (SPEC §2: raw differences of 166 Hz positions) has median(s) of 0.5–0.7 and c ≈ 0.3–0.7;
+sensor noise (raw differences of 166 Hz positions) has median(s) of 0.5–0.7 and c ≈ 0.3–0.7;
 a stream that is quiet between distinct events (gripper, finger force) has median(s) near 0 and
 c near the cap. The median is the robust "baseline" (events occupy a minority of frames in these
 demonstrations); eps caps the contrast of almost-always-still streams (a gripper that moves twice)
@@ -29,18 +29,25 @@ from dataclasses import replace
 
 import numpy as np
 
+from .._validation import check_array, check_real, fail
 from .config import SegmentationConfig, Stream, check_config, stream_list
-from .segment import analyse_stream
-from .timebase import check_shared_time_base
+from .segment import _analyse, checked_streams
 
 CONTRAST_EPS = 1e-3
 
 
 def jerk_contrast(signal: np.ndarray, eps: float = CONTRAST_EPS) -> float:
-    """ln(1 / max(median(signal), eps)) for a normalised signal (max 1); 0.0 for an all-zero signal."""
-    signal = np.asarray(signal, dtype=np.float64)
-    if signal.size == 0 or not np.isfinite(signal).all():  # the median of NaN would be a NaN weight
-        raise ValueError(f"signal must be a non-empty finite array, got {signal.size} values")
+    """ln(1 / max(median(signal), eps)) for a normalised signal (max 1, finite, non-empty) and eps > 0;
+    0.0 for an all-zero signal."""
+    # the median of NaN would be a NaN weight
+    signal = check_array("signal", signal, min_len=1, axes=("index",)).reshape(-1)
+    if not signal.size:
+        fail("signal", "be a non-empty finite array, got no values")
+    return _contrast(signal, check_real("eps", eps, low=0.0, low_open=True))
+
+
+def _contrast(signal: np.ndarray, eps: float) -> float:
+    """:func:`jerk_contrast` of a checked signal."""
     if not signal.any():
         return 0.0
     return float(np.log(1.0 / max(float(np.median(signal)), eps)))
@@ -53,12 +60,9 @@ def auto_weights(streams: Sequence[Stream], config: SegmentationConfig | None = 
     stream is flat (no contrast anywhere) it warns and returns uniform weights.
     """
     config = check_config(config, "auto_weights")
-    streams = stream_list(streams, "auto_weights")
+    streams, _ = checked_streams(streams, config, "auto_weights")
     names = [s.name for s in streams]
-    if len(set(names)) != len(names):
-        raise ValueError(f"stream names must be unique, got {names}")
-    check_shared_time_base(streams, config)
-    contrast = np.array([jerk_contrast(analyse_stream(s, config).signal) for s in streams])
+    contrast = np.array([_contrast(_analyse(s, config).signal, CONTRAST_EPS) for s in streams])
     total = float(contrast.sum())
     if total <= 0.0:
         warnings.warn(
@@ -71,12 +75,15 @@ def auto_weights(streams: Sequence[Stream], config: SegmentationConfig | None = 
 
 
 def reweighted(streams: Sequence[Stream], weights: Mapping[str, float]) -> list[Stream]:
-    """The same streams with the given weights (a missing name is an error)."""
+    """The same streams with the given weights: ``weights`` maps every stream's name (and no other) to
+    its weight (checked as `Stream.weight`)."""
     streams = stream_list(streams, "reweighted")
+    if not isinstance(weights, Mapping):
+        fail("weights", f"be a mapping of stream name to weight, got {type(weights).__name__}")
     missing = [s.name for s in streams if s.name not in weights]
     if missing:
-        raise ValueError(f"no weight given for streams {missing}")
-    unknown = sorted(set(weights) - {s.name for s in streams})
+        fail("weights", f"give a weight for every stream, got none for {missing}")
+    unknown = sorted(set(weights) - {s.name for s in streams}, key=str)
     if unknown:
-        raise ValueError(f"weights given for unknown streams {unknown}")
-    return [replace(s, weight=float(weights[s.name])) for s in streams]
+        fail("weights", f"name only the given streams, got unknown streams {unknown}")
+    return [replace(s, weight=weights[s.name]) for s in streams]

@@ -1,4 +1,4 @@
-"""Changepoints from the combined pmf (SPEC §2): "sample", "peaks", and the minimum segment length.
+"""Changepoints from the combined pmf: "sample", "peaks", and the minimum segment length.
 
 - `sample_changepoints` (the paper / authors' code): draw n_samples frames from the pmf with a
   numpy Generator, sort them, group them greedily (a group holds the draws within `window` frames
@@ -9,6 +9,8 @@
 - `enforce_min_segment_length`: interior changepoints are accepted strongest-first (by pmf value,
   ties to the earlier frame) when they are at least `min_length` frames from 0, from T and from
   every accepted one. Returns the sorted changepoints with 0 and T and the rejected candidates.
+
+The three functions check their inputs; `segment_streams` calls the unchecked cores.
 """
 
 from __future__ import annotations
@@ -16,14 +18,39 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import find_peaks
 
-from .config import is_int
+from .._validation import check_array, check_int, check_int_array, check_real, fail
+from .config import MAX_SAMPLE_DRAWS
+
+#: how far the sum of a pmf may be from 1 (numpy's own test in Generator.choice is sqrt(eps))
+PMF_SUM_TOLERANCE = 1e-8
+
+
+def _check_pmf(pmf: object, normalised: bool) -> np.ndarray:
+    """A finite (T,) array with T >= 1; with ``normalised`` also >= 0 and summing to 1."""
+    pmf = check_array("pmf", pmf, ndim=1, min_len=1, axes=("frame",))
+    if normalised and ((pmf < 0).any() or abs(float(pmf.sum()) - 1.0) > PMF_SUM_TOLERANCE):
+        fail("pmf", f"hold probabilities >= 0 that sum to 1, got a sum of {float(pmf.sum())!r}")
+    return pmf
 
 
 def sample_changepoints(
     pmf: np.ndarray, rng: np.random.Generator, n_samples: int, n_pass: int, window: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(candidate changepoints, sorted draws) of the paper's sampling consensus."""
-    _check_counts(n_samples=n_samples, n_pass=n_pass, window=window)
+    """(candidate changepoints, sorted draws) of the paper's sampling consensus: pmf (T,) a pmf, rng a
+    numpy Generator (advanced by the call), n_samples in [1, MAX_SAMPLE_DRAWS], n_pass and window >= 1."""
+    pmf = _check_pmf(pmf, normalised=True)
+    if not isinstance(rng, np.random.Generator):
+        fail("rng", f"be a numpy.random.Generator, got {type(rng).__name__}")
+    n_samples = check_int("n_samples", n_samples, low=1, high=MAX_SAMPLE_DRAWS)
+    return _sample(
+        pmf, rng, n_samples, check_int("n_pass", n_pass, low=1), check_int("window", window, low=1)
+    )
+
+
+def _sample(
+    pmf: np.ndarray, rng: np.random.Generator, n_samples: int, n_pass: int, window: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`sample_changepoints` of checked inputs."""
     draws = np.sort(rng.choice(pmf.size, size=n_samples, replace=True, p=pmf))
     candidates: list[int] = []
     anchor = 0
@@ -42,8 +69,16 @@ def sample_changepoints(
 
 
 def peak_changepoints(pmf: np.ndarray, floor_level: float, peak_ratio: float, window: int) -> np.ndarray:
-    """Frames of the local maxima of pmf with height >= peak_ratio * floor_level, >= window apart."""
-    _check_counts(window=window)
+    """Frames of the local maxima of pmf (T,) with height >= peak_ratio * floor_level, >= window apart
+    (floor_level >= 0, peak_ratio >= 1, window >= 1)."""
+    pmf = _check_pmf(pmf, normalised=False)
+    floor_level = check_real("floor_level", floor_level, low=0.0)
+    peak_ratio = check_real("peak_ratio", peak_ratio, low=1.0)
+    return _peaks(pmf, floor_level, peak_ratio, check_int("window", window, low=1))
+
+
+def _peaks(pmf: np.ndarray, floor_level: float, peak_ratio: float, window: int) -> np.ndarray:
+    """:func:`peak_changepoints` of checked inputs."""
     peaks, _ = find_peaks(pmf, height=peak_ratio * floor_level, distance=window)
     return peaks.astype(np.int64)
 
@@ -51,15 +86,23 @@ def peak_changepoints(pmf: np.ndarray, floor_level: float, peak_ratio: float, wi
 def enforce_min_segment_length(
     candidates: np.ndarray, strength: np.ndarray, n_frames: int, min_length: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(changepoints [0, ..., T] sorted, rejected candidates sorted); see module doc."""
-    # min_length >= 1 is what keeps every segment non-empty (0 would accept T and repeated candidates)
-    _check_counts(n_frames=n_frames, min_length=min_length)
-    candidates = np.asarray(candidates, dtype=np.int64).reshape(-1)
-    if np.shape(strength) != candidates.shape:
-        raise ValueError(
-            f"strength must have one value per candidate {candidates.shape}, got {np.shape(strength)}"
-        )
-    order = np.lexsort((candidates, -np.asarray(strength, dtype=np.float64)))
+    """(changepoints [0, ..., T] sorted, rejected candidates sorted); see module doc.
+
+    candidates (C,) frames (any order), strength (C,) finite, n_frames T >= 1, min_length >= 1 (what
+    keeps every segment non-empty: 0 would accept T and repeated candidates).
+    """
+    n_frames = check_int("n_frames", n_frames, low=1)
+    min_length = check_int("min_length", min_length, low=1)
+    candidates = check_int_array("candidates", candidates)
+    strength = check_array("strength", strength, shape=candidates.shape, axes=("candidate",))
+    return _min_segment_length(candidates, strength, n_frames, min_length)
+
+
+def _min_segment_length(
+    candidates: np.ndarray, strength: np.ndarray, n_frames: int, min_length: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`enforce_min_segment_length` of checked inputs."""
+    order = np.lexsort((candidates, -strength))
     accepted: list[int] = []
     rejected: list[int] = []
     for c in candidates[order].tolist():  # a handful of candidates
@@ -67,10 +110,3 @@ def enforce_min_segment_length(
         (accepted if ok else rejected).append(c)
     changepoints = np.array([0, *sorted(accepted), n_frames], dtype=np.int64)
     return changepoints, np.array(sorted(rejected), dtype=np.int64)
-
-
-def _check_counts(**counts: object) -> None:
-    """ValueError naming the first of ``counts`` that is not an int >= 1."""
-    for name, value in counts.items():
-        if not (is_int(value) and value >= 1):
-            raise ValueError(f"{name} must be an int >= 1, got {value!r}")

@@ -1,4 +1,4 @@
-"""Per-stream changepoint pmfs and their weighted combination (SPEC §2, paper eq. prob-comb).
+"""Per-stream changepoint pmfs and their weighted combination (``docs/segmentation.md``).
 
 Per stream: p_i(t) ∝ floor / T + Σ_k N(t; k, σ²) over its keypoints k, t = 0 .. T-1 (frames),
 each Gaussian cut at ±8σ.
@@ -20,6 +20,8 @@ log domain (no underflow for many streams).
 
 The floor level of the combined pmf (its value where no stream has a keypoint nearby) is returned
 with it: peaks mode measures peaks against it.
+
+`stream_pmf` and `combine_pmfs` check their inputs; `segment_streams` calls the unchecked cores.
 """
 
 from __future__ import annotations
@@ -28,7 +30,8 @@ import math
 
 import numpy as np
 
-from .config import MIN_SIGMA, Mode, is_int
+from .._validation import check_array, check_choice, check_int, check_int_array, check_real, fail
+from .config import MAX_FRAMES, MIN_SIGMA, MODES, Mode
 
 GAUSS_RADIUS_SIGMAS = 8.0  # Gaussians are cut at ±8σ: the dropped tail is below 1.3e-14 of the peak
 
@@ -36,20 +39,21 @@ GAUSS_RADIUS_SIGMAS = 8.0  # Gaussians are cut at ±8σ: the dropped tail is bel
 def stream_pmf(keypoints: np.ndarray, n_frames: int, sigma: float, floor: float) -> tuple[np.ndarray, float]:
     """pmf (T,) of one stream's changepoints and its floor level (the pmf value far from keypoints).
 
-    Vectorised over keypoints and frames: every keypoint's Gaussian (cut at ±8σ, and at T frames: no
-    frame lies further from a keypoint) is scattered into the frame axis with one np.bincount.
+    keypoints (K,) frames in [0, T); n_frames T in [1, MAX_FRAMES]; sigma >= MIN_SIGMA samples; floor > 0.
     """
-    if not (is_int(n_frames) and n_frames >= 1):
-        raise ValueError(f"n_frames must be an int >= 1, got {n_frames!r}")
-    if not (np.isfinite(sigma) and sigma >= MIN_SIGMA):
-        raise ValueError(f"sigma must be >= {MIN_SIGMA:g} samples, got {sigma!r}")
-    if not (np.isfinite(floor) and floor > 0):
-        raise ValueError(f"floor must be > 0, got {floor!r}")
-    keypoints = np.asarray(keypoints, dtype=np.int64).reshape(-1)
+    n_frames = check_int("n_frames", n_frames, low=1, high=MAX_FRAMES)
+    sigma = check_real("sigma", sigma, low=MIN_SIGMA, unit="samples")
+    floor = check_real("floor", floor, low=0.0, low_open=True)
+    keypoints = check_int_array("keypoints", keypoints)
     if keypoints.size and (keypoints.min() < 0 or keypoints.max() >= n_frames):
-        raise ValueError(
-            f"keypoints must be frames in [0, {n_frames}), got {keypoints.min()}..{keypoints.max()}"
-        )
+        fail("keypoints", f"be frames in [0, {n_frames}), got {keypoints.min()}..{keypoints.max()}")
+    return _stream_pmf(keypoints, n_frames, sigma, floor)
+
+
+def _stream_pmf(keypoints: np.ndarray, n_frames: int, sigma: float, floor: float) -> tuple[np.ndarray, float]:
+    """:func:`stream_pmf` of checked inputs. Vectorised over keypoints and frames: every keypoint's
+    Gaussian (cut at ±8σ, and at T frames: no frame lies further from a keypoint) is scattered into the
+    frame axis with one np.bincount."""
     raw = np.full(n_frames, floor / n_frames)
     if keypoints.size:
         radius = min(int(math.ceil(GAUSS_RADIUS_SIGMAS * sigma)), n_frames)
@@ -69,21 +73,36 @@ def combine_pmfs(
 ) -> tuple[np.ndarray, float]:
     """Combine stream pmfs (n, T) with weights (n,) -> (pmf (T,), floor level of the combined pmf).
 
-    Streams with weight 0 are left out; raises ValueError when no weight is positive.
+    pmfs and floor_levels (n,) > 0 (as `stream_pmf` makes them); weights >= 0, at least one > 0;
+    streams with weight 0 are left out. mode one of MODES.
     """
-    pmfs = np.asarray(pmfs, dtype=np.float64)
-    weights = np.asarray(weights, dtype=np.float64)
-    floor_levels = np.asarray(floor_levels, dtype=np.float64)
-    if pmfs.ndim != 2 or weights.shape != (pmfs.shape[0],) or floor_levels.shape != (pmfs.shape[0],):
-        raise ValueError(
-            f"pmfs (n, T), floor_levels (n,) and weights (n,) must agree, got {pmfs.shape}, "
-            f"{floor_levels.shape} and {weights.shape}"
+    pmfs = check_array("pmfs", pmfs, ndim=2, min_len=1, finite=False)
+    n = pmfs.shape[0]
+    floor_levels = check_array("floor_levels", floor_levels, shape=(n,), axes=("stream",))
+    weights = check_array("weights", weights, shape=(n,), axes=("stream",))
+    if not (weights >= 0).all():
+        fail("weights", "be >= 0", weights.tolist())
+    if not (weights > 0).any():
+        fail(
+            "weights",
+            "give at least one stream a weight > 0 (a stream of weight 0 is left out), got all zero",
         )
-    if not (np.isfinite(weights).all() and (weights >= 0).all()):
-        raise ValueError(f"weights must be finite and >= 0, got {weights.tolist()}")
+    # two reductions instead of element masks (NaN fails the first): the values go through log()
+    low, high = float(pmfs.min()), float(pmfs.max())
+    if not (low > 0 and math.isfinite(high) and (floor_levels > 0).all()):
+        fail(
+            "pmfs",
+            "hold finite values > 0 with floor_levels > 0 (as stream_pmf makes them), got values in "
+            f"[{low:g}, {high:g}]",
+        )
+    return _combine(pmfs, floor_levels, weights, check_choice("mode", mode, MODES))
+
+
+def _combine(
+    pmfs: np.ndarray, floor_levels: np.ndarray, weights: np.ndarray, mode: Mode
+) -> tuple[np.ndarray, float]:
+    """:func:`combine_pmfs` of checked inputs; products in the log domain."""
     active = weights > 0
-    if not active.any():
-        raise ValueError("all stream weights are zero: at least one stream needs a weight > 0")
     p = pmfs[active]
     f = floor_levels[active]
     w = weights[active]
@@ -92,8 +111,6 @@ def combine_pmfs(
         return (w @ p) / total, float(w @ f) / total
     if mode == "product":
         w = np.ones_like(w)
-    elif mode != "geometric":
-        raise ValueError(f"mode must be 'product', 'geometric' or 'linear', got {mode!r}")
     log_p = w @ np.log(p)
     log_floor = float(w @ np.log(f))
     top = float(log_p.max())

@@ -1,7 +1,8 @@
-"""Inputs of the segmentation: named streams and the configuration (SPEC §2).
+"""Inputs of the segmentation: named streams and the configuration.
 
 Pure NumPy (floor 1). A `Stream` checks itself when it is built (shape, finite values, finite and
-non-decreasing times) so that a bad recording fails with the stream's name and the first bad frame.
+non-decreasing times) so that a bad recording fails with the stream's name and the first bad frame;
+a `SegmentationConfig` checks its fields. Everything downstream trusts both.
 """
 
 from __future__ import annotations
@@ -11,6 +12,17 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+
+from .._validation import (
+    check_array,
+    check_choice,
+    check_int,
+    check_real,
+    check_str,
+    fail,
+    first_bad_index,
+    is_int,
+)
 
 Mode = Literal["product", "geometric", "linear"]
 ChangepointMethod = Literal["sample", "peaks"]
@@ -28,41 +40,8 @@ MAX_STREAM_WEIGHT = 1e100
 MIN_SIGMA = 1e-3
 #: most draws of sample mode (the paper draws 20; each draw is 8 bytes of memory)
 MAX_SAMPLE_DRAWS = 1_000_000
-
-
-def _first_bad_index(mask: np.ndarray) -> tuple[int, ...]:
-    """Index (frame[, column]) of the first True entry of a boolean array."""
-    flat = int(np.argmax(mask.reshape(-1)))
-    return tuple(int(i) for i in np.unravel_index(flat, mask.shape))
-
-
-def is_int(x: object) -> bool:
-    """An int (Python or NumPy), not a bool."""
-    return isinstance(x, int | np.integer) and not isinstance(x, bool)
-
-
-def _real(value: object) -> float:
-    """``float(value)``, or NaN for what is not a real number (so the caller's check names the field)."""
-    if isinstance(value, (bool, str, bytes)):  # float("2") would pass, then fail as a str downstream
-        return float("nan")
-    if isinstance(value, np.ndarray) and value.ndim > 0:  # float() of a 1-element array is deprecated
-        return float("nan")
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        return float("nan")
-
-
-def _float_array(name: str, field: str, data: object, shape: str) -> np.ndarray:
-    """``np.asarray(data, float64)``; numpy's conversion error (strings, ragged lists) names neither the
-    stream nor the argument, so it is raised again under both."""
-    try:
-        array = np.asarray(data)
-        if array.dtype.kind == "c":  # float64 would drop the imaginary part with only a ComplexWarning
-            raise ValueError(f"got complex numbers ({array.dtype})")
-        return array.astype(np.float64, copy=False)
-    except (TypeError, ValueError) as err:
-        raise ValueError(f"stream {name!r}: {field} must be numbers of shape {shape}; {err}") from None
+#: most frames a pmf may have when asked for by count (`stream_pmf`): a day at 1 kHz, 0.8 GB per pmf
+MAX_FRAMES = 100_000_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,6 +54,8 @@ class Stream:
                samples: see `SegmentationConfig.duplicate_times`)
     weight:    importance v_i >= 0 (0 leaves the stream out of the combined pmf)
     threshold: keypoint threshold, a fraction in (0, 1] of the stream's own maximum smoothed jerk
+
+    Errors name the stream and field (``"Stream('arm').times: ..."``) and the first bad frame.
     """
 
     name: str
@@ -84,63 +65,20 @@ class Stream:
     threshold: float = 0.2
 
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not self.name:
-            raise ValueError(f"Stream name must be a non-empty string, got {self.name!r}")
-        values = _float_array(self.name, "values", self.values, "(T,) or (T, k)")
-        if values.ndim == 1:
-            values = values[:, None]
-        if values.ndim != 2 or values.shape[0] < 2 or values.shape[1] < 1:
-            raise ValueError(
-                f"stream {self.name!r}: values must have shape (T,) or (T, k) with T >= 2, got {np.shape(self.values)}"
-            )
-        times = _float_array(self.name, "times", self.times, "(T,)")
-        if times.ndim == 2 and times.shape[1] == 1:
-            times = times[:, 0]
-        if times.shape != (values.shape[0],):
-            raise ValueError(
-                f"stream {self.name!r}: times must have shape ({values.shape[0]},) to match values, got {np.shape(self.times)}"
-            )
-        bad = ~np.isfinite(values)
-        if bad.any():
-            frame, col = _first_bad_index(bad)
-            raise ValueError(
-                f"stream {self.name!r}: non-finite value {values[frame, col]} at frame {frame}, column {col}"
-                f" ({int(bad.any(axis=1).sum())} bad frames in all)"
-            )
-        bad_t = ~np.isfinite(times)
-        if bad_t.any():
-            (frame,) = _first_bad_index(bad_t)
-            raise ValueError(f"stream {self.name!r}: non-finite time {times[frame]} at frame {frame}")
-        dt = np.diff(times)
-        if (dt < 0).any():
-            (i,) = _first_bad_index(dt < 0)
-            raise ValueError(
-                f"stream {self.name!r}: times decrease at frame {i + 1} ({times[i]:.9f} s -> {times[i + 1]:.9f} s);"
-                " sort the samples or fix the recording"
-            )
-        weight = _real(self.weight)
-        if not np.isfinite(weight) or weight < 0:
-            raise ValueError(f"stream {self.name!r}: weight must be finite and >= 0, got {self.weight!r}")
-        if weight > MAX_STREAM_WEIGHT:
-            # the geometric combination multiplies log-pmfs (down to about -745) by the weights
-            raise ValueError(
-                f"stream {self.name!r}: weight {weight:g} is above {MAX_STREAM_WEIGHT:g}; weights are relative "
-                "importances (in the geometric mode their common scale acts as a temperature)"
-            )
-        threshold = _real(self.threshold)
-        if not (0.0 < threshold <= 1.0):
-            raise ValueError(
-                f"stream {self.name!r}: threshold is a fraction of the stream's maximum, in (0, 1], got {self.threshold!r}"
-            )
+        name = check_str("Stream.name", self.name, empty_ok=False)
+        where = f"Stream({name!r})"
+        values = _stream_values(f"{where}.values", self.values)
+        times = _stream_times(f"{where}.times", self.times, values.shape[0])
         # Read-only copies: the stream cannot be edited through itself, and a later edit of the caller's
-        # arrays (a NaN, a decreasing time) cannot slip past the checks above.
-        values = values.copy()
-        times = times.copy()
-        values.setflags(write=False)
-        times.setflags(write=False)
-        object.__setattr__(self, "values", values)
-        object.__setattr__(self, "times", times)
+        # arrays (a NaN, a decreasing time) cannot slip past the checks.
+        for field, array in (("values", values), ("times", times)):
+            array = array.copy()
+            array.setflags(write=False)
+            object.__setattr__(self, field, array)
+        # the geometric combination multiplies log-pmfs (down to about -745) by the weights
+        weight = check_real(f"{where}.weight", self.weight, low=0.0, high=MAX_STREAM_WEIGHT)
         object.__setattr__(self, "weight", weight)
+        threshold = check_real(f"{where}.threshold", self.threshold, low=0.0, high=1.0, low_open=True)
         object.__setattr__(self, "threshold", threshold)
 
     @property
@@ -148,22 +86,59 @@ class Stream:
         return int(self.values.shape[0])
 
 
-def stream_list(streams: Iterable[Stream], caller: str) -> list[Stream]:
-    """The streams of one call to `caller` as a list; ValueError when there are none or an item is not a
-    `Stream` (a bare array would fail later with an AttributeError)."""
-    if isinstance(streams, Stream):
-        raise ValueError(
-            f"{caller} takes a list of Streams (all of one demonstration), got one Stream: [stream]"
+def _stream_values(name: str, data: object) -> np.ndarray:
+    """``data`` as a finite float64 (T, k) array with T >= 2, k >= 1 ((T,) reads as (T, 1))."""
+    values = check_array(name, data, finite=False)
+    if values.ndim == 1:
+        values = values[:, None]
+    if values.ndim != 2 or values.shape[0] < 2 or values.shape[1] < 1:
+        fail(name, f"have shape (T,) or (T, k) with T >= 2, got shape {np.shape(data)}")
+    bad = ~np.isfinite(values)
+    if bad.any():
+        frame, column = first_bad_index(bad)
+        fail(
+            name,
+            f"hold finite values only (the first bad one is at frame {frame}, column {column}; "
+            f"{int(bad.any(axis=1).sum())} bad frames in all)",
+            float(values[frame, column]),
         )
+    return values
+
+
+def _stream_times(name: str, data: object, n_frames: int) -> np.ndarray:
+    """``data`` as finite, non-decreasing (T,) float64 seconds ((T, 1) reads as (T,))."""
+    times = check_array(name, data, finite=False)
+    if times.ndim == 2 and times.shape[1] == 1:
+        times = times[:, 0]
+    if times.shape != (n_frames,):
+        fail(name, f"have shape ({n_frames},) to match values, got shape {np.shape(data)}")
+    times = check_array(name, times, axes=("frame",))
+    back = np.diff(times) < 0
+    if back.any():
+        (i,) = first_bad_index(back)
+        fail(
+            name,
+            f"be non-decreasing (sort the samples or fix the recording), got {times[i]:.9f} s -> "
+            f"{times[i + 1]:.9f} s at frame {i + 1}",
+        )
+    return times
+
+
+def stream_list(streams: Iterable[Stream], caller: str) -> list[Stream]:
+    """The streams of one call to `caller` as a non-empty list of `Stream` (a bare array would fail
+    later with an AttributeError naming neither)."""
+    name = f"{caller}(streams=...)"
+    if isinstance(streams, Stream):
+        fail(name, "be a list of Streams (all of one demonstration), got one Stream: pass [stream]")
     try:
         streams = list(streams)
     except TypeError:
-        raise ValueError(f"{caller} takes a list of Streams, got {type(streams).__name__}") from None
+        fail(name, f"be a list of Streams, got {type(streams).__name__}")
     if not streams:
-        raise ValueError(f"{caller} needs at least one stream")
-    for s in streams:
+        fail(name, "hold at least one stream, got none")
+    for i, s in enumerate(streams):
         if not isinstance(s, Stream):
-            raise ValueError(f"{caller} takes Stream objects, got {type(s).__name__}")
+            fail(name, f"hold Stream objects, got {type(s).__name__} at [{i}]")
     return streams
 
 
@@ -175,7 +150,8 @@ AUTHORS_WINDOW_S = 64 / AUTHORS_RATE_HZ
 
 @dataclass(frozen=True, eq=False)
 class SegmentationConfig:
-    """Parameters of `segment_streams` (SPEC §2; defaults are the authors' UR5e values where they exist).
+    """Parameters of `segment_streams` (defaults are the authors' UR5e values where they exist; see
+    ``docs/segmentation.md``). Errors name the field (``"SegmentationConfig.window: ..."``).
 
     window:       moving-average width of the jerk, in samples (64); also the Savitzky–Golay window,
                   the default Gaussian sigma, the sample-mode grouping window and the minimum peak distance
@@ -227,64 +203,38 @@ class SegmentationConfig:
     time_tolerance: float | None = None
 
     def __post_init__(self) -> None:
-        def need(ok: bool, what: str) -> None:
-            if not ok:
-                raise ValueError(f"SegmentationConfig: {what}")
+        self._check_sizes()
+        self._check_methods()
 
-        need(is_int(self.window) and self.window >= 5, f"window must be an int >= 5, got {self.window!r}")
-        need(is_int(self.min_run) and self.min_run >= 1, f"min_run must be an int >= 1, got {self.min_run!r}")
-        need(is_int(self.grace) and self.grace >= 0, f"grace must be an int >= 0, got {self.grace!r}")
-        sigma, floor = _real(self.sigma), _real(self.floor)
-        need(
-            self.sigma is None or (np.isfinite(sigma) and sigma >= MIN_SIGMA),
-            f"sigma must be None or >= {MIN_SIGMA:g} samples, got {self.sigma!r}",
-        )
-        need(np.isfinite(floor) and floor > 0, f"floor must be > 0, got {self.floor!r}")
-        need(self.mode in MODES, f"mode must be one of {MODES}, got {self.mode!r}")
-        need(
-            self.changepoints in CHANGEPOINT_METHODS,
-            f"changepoints must be one of {CHANGEPOINT_METHODS}, got {self.changepoints!r}",
-        )
-        need(
-            is_int(self.n_samples) and 1 <= self.n_samples <= MAX_SAMPLE_DRAWS,
-            f"n_samples must be an int in [1, {MAX_SAMPLE_DRAWS}], got {self.n_samples!r}",
-        )
-        need(is_int(self.n_pass) and self.n_pass >= 1, f"n_pass must be an int >= 1, got {self.n_pass!r}")
-        need(
-            self.changepoints != "sample" or self.n_pass <= self.n_samples,
-            f"n_pass={self.n_pass} is above n_samples={self.n_samples}: no window can hold that many draws,"
-            " so sample mode could never give a changepoint",
-        )
-        need(
-            isinstance(self.seed, np.random.Generator) or (is_int(self.seed) and self.seed >= 0),
-            f"seed must be an int >= 0 or a numpy.random.Generator, got {self.seed!r}",
-        )
-        need(
-            self.min_segment_length is None
-            or (is_int(self.min_segment_length) and self.min_segment_length >= 1),
-            f"min_segment_length must be None or an int >= 1, got {self.min_segment_length!r}",
-        )
-        need(
-            self.derivative in DERIVATIVES,
-            f"derivative must be one of {DERIVATIVES}, got {self.derivative!r}",
-        )
-        need(
-            is_int(self.polyorder) and 3 <= self.polyorder < self.window,
-            f"polyorder must be an int with 3 <= polyorder < window, got {self.polyorder!r}",
-        )
-        need(
-            np.isfinite(_real(self.peak_ratio)) and _real(self.peak_ratio) >= 1.0,
-            f"peak_ratio must be >= 1, got {self.peak_ratio!r}",
-        )
-        need(
-            self.duplicate_times in DUPLICATE_TIMES,
-            f"duplicate_times must be one of {DUPLICATE_TIMES}, got {self.duplicate_times!r}",
-        )
-        need(
-            self.time_tolerance is None
-            or (np.isfinite(_real(self.time_tolerance)) and _real(self.time_tolerance) >= 0),
-            f"time_tolerance must be None or >= 0 seconds, got {self.time_tolerance!r}",
-        )
+    def _check_sizes(self) -> None:
+        """The sample counts and the Gaussians' widths."""
+        check_int("SegmentationConfig.window", self.window, low=5)
+        check_int("SegmentationConfig.min_run", self.min_run, low=1)
+        check_int("SegmentationConfig.grace", self.grace, low=0)
+        check_real("SegmentationConfig.sigma", self.sigma, low=MIN_SIGMA, none_ok=True, unit="samples")
+        check_real("SegmentationConfig.floor", self.floor, low=0.0, low_open=True)
+        check_int("SegmentationConfig.min_segment_length", self.min_segment_length, low=1, none_ok=True)
+        check_int("SegmentationConfig.polyorder", self.polyorder, low=3, high=self.window - 1)
+        check_real("SegmentationConfig.time_tolerance", self.time_tolerance, low=0.0, none_ok=True, unit="s")
+
+    def _check_methods(self) -> None:
+        """The methods and their settings."""
+        check_choice("SegmentationConfig.mode", self.mode, MODES)
+        check_choice("SegmentationConfig.changepoints", self.changepoints, CHANGEPOINT_METHODS)
+        check_int("SegmentationConfig.n_samples", self.n_samples, low=1, high=MAX_SAMPLE_DRAWS)
+        check_int("SegmentationConfig.n_pass", self.n_pass, low=1)
+        if self.changepoints == "sample" and self.n_pass > self.n_samples:
+            fail(
+                "SegmentationConfig.n_pass",
+                f"be <= n_samples={self.n_samples} in sample mode (no window can hold more draws than "
+                "there are, so sample mode could never give a changepoint)",
+                self.n_pass,
+            )
+        if not (isinstance(self.seed, np.random.Generator) or (is_int(self.seed) and self.seed >= 0)):
+            fail("SegmentationConfig.seed", "be an integer >= 0 or a numpy.random.Generator", self.seed)
+        check_choice("SegmentationConfig.derivative", self.derivative, DERIVATIVES)
+        check_real("SegmentationConfig.peak_ratio", self.peak_ratio, low=1.0)
+        check_choice("SegmentationConfig.duplicate_times", self.duplicate_times, DUPLICATE_TIMES)
 
     @property
     def sigma_frames(self) -> float:
@@ -308,5 +258,5 @@ def check_config(config: object, caller: str) -> SegmentationConfig:
         return SegmentationConfig()
     if not isinstance(config, SegmentationConfig):
         hint = " (build one: SegmentationConfig(**settings))" if isinstance(config, dict) else ""
-        raise ValueError(f"{caller}: config must be a SegmentationConfig, got {type(config).__name__}{hint}")
+        fail(f"{caller}(config=...)", f"be a SegmentationConfig or None{hint}, got {type(config).__name__}")
     return config

@@ -37,6 +37,8 @@ from typing import Literal
 
 import numpy as np
 
+from .._validation import check_array, check_choice, check_finite, check_int, check_real, fail
+
 MatchMethod = Literal["optimal", "greedy"]
 MATCH_METHODS: tuple[str, ...] = ("optimal", "greedy")
 
@@ -62,14 +64,15 @@ class ChangepointScore:
 
 
 def _as_sorted_points(name: str, values: Iterable[float] | np.ndarray) -> np.ndarray:
-    x = np.asarray(list(values) if not isinstance(values, np.ndarray) else values, dtype=np.float64)
+    """Finite frames or times, any order, as a sorted (n,) float array (a (n, 1) array reads as (n,))."""
+    try:
+        values = values if isinstance(values, np.ndarray) else list(values)
+    except TypeError:
+        fail(name, f"be a 1-D array of frames or times, got {type(values).__name__}")
+    x = check_array(name, values, finite=False)
     if x.ndim > 1 and np.squeeze(x).ndim > 1:
-        raise ValueError(f"{name} must be a 1-D array of frames or times, got shape {x.shape}")
-    x = x.reshape(-1)
-    bad = ~np.isfinite(x)
-    if bad.any():
-        raise ValueError(f"{name} is not finite at index {int(np.argmax(bad))} ({x[bad][0]!r})")
-    return np.sort(x, kind="stable")
+        fail(name, f"be a 1-D array of frames or times, got shape {x.shape}")
+    return np.sort(check_finite(name, x.reshape(-1), axes=("index",)), kind="stable")
 
 
 def _match_optimal(pred: np.ndarray, ref: np.ndarray, tolerance: float) -> np.ndarray:
@@ -105,13 +108,20 @@ def match_changepoints(
     tolerance: float,
     method: MatchMethod = "optimal",
 ) -> np.ndarray:
-    """(M, 2) index pairs into (sorted predicted, sorted reference) matched one-to-one within tolerance."""
-    if not (np.isfinite(tolerance) and tolerance >= 0):
-        raise ValueError(f"tolerance must be a finite number >= 0, got {tolerance!r}")
-    if method not in MATCH_METHODS:
-        raise ValueError(f"method must be one of {MATCH_METHODS}, got {method!r}")
-    pred = _as_sorted_points("predicted", predicted)
-    ref = _as_sorted_points("reference", reference)
+    """(M, 2) index pairs into (sorted predicted, sorted reference) matched one-to-one within tolerance
+    (>= 0, in the points' unit) by ``method`` (one of MATCH_METHODS)."""
+    tolerance = check_real("tolerance", tolerance, low=0.0)
+    method = check_choice("method", method, MATCH_METHODS)
+    return _match(
+        _as_sorted_points("predicted", predicted),
+        _as_sorted_points("reference", reference),
+        tolerance,
+        method,
+    )
+
+
+def _match(pred: np.ndarray, ref: np.ndarray, tolerance: float, method: str) -> np.ndarray:
+    """:func:`match_changepoints` of sorted, checked points."""
     if pred.size == 0 or ref.size == 0:
         return np.zeros((0, 2), dtype=np.int64)
     return (
@@ -121,10 +131,14 @@ def match_changepoints(
 
 def prf(n_matched: int, n_predicted: int, n_reference: int) -> tuple[float, float, float]:
     """(precision, recall, F1) from counts, with the module's empty-set conventions."""
-    if not (0 <= n_matched <= min(n_predicted, n_reference)):
-        raise ValueError(
-            f"need 0 <= matched <= min(predicted, reference), got {n_matched}, {n_predicted}, {n_reference}"
-        )
+    n_predicted = check_int("n_predicted", n_predicted, low=0)
+    n_reference = check_int("n_reference", n_reference, low=0)
+    check_int("n_matched", n_matched, low=0, high=min(n_predicted, n_reference))
+    return _prf(n_matched, n_predicted, n_reference)
+
+
+def _prf(n_matched: int, n_predicted: int, n_reference: int) -> tuple[float, float, float]:
+    """:func:`prf` of checked counts."""
     precision = n_matched / n_predicted if n_predicted else 1.0
     recall = n_matched / n_reference if n_reference else 1.0
     total = n_predicted + n_reference
@@ -145,10 +159,11 @@ def score_changepoints(
     """
     pred = _as_sorted_points("predicted", predicted)
     ref = _as_sorted_points("reference", reference)
-    pairs = match_changepoints(pred, ref, tolerance, method)
+    tolerance = check_real("tolerance", tolerance, low=0.0)
+    pairs = _match(pred, ref, tolerance, check_choice("method", method, MATCH_METHODS))
     errors = pred[pairs[:, 0]] - ref[pairs[:, 1]] if pairs.size else np.zeros(0)
     m = int(pairs.shape[0])
-    precision, recall, f1 = prf(m, pred.size, ref.size)
+    precision, recall, f1 = _prf(m, pred.size, ref.size)
     return ChangepointScore(
         pairs=pairs,
         errors=errors,
@@ -162,17 +177,23 @@ def score_changepoints(
 
 
 def pooled_score(scores: Iterable[ChangepointScore]) -> tuple[float, float, float]:
-    """Micro (pooled) precision, recall, F1: counts summed over all scores first."""
+    """Micro (pooled) precision, recall, F1: counts summed over all `ChangepointScore` first."""
     m = p = e = 0
-    for s in scores:
+    for i, s in enumerate(scores):
+        if not isinstance(s, ChangepointScore):
+            fail(f"scores[{i}]", f"be a ChangepointScore, got {type(s).__name__}")
         m, p, e = m + s.n_matched, p + s.n_predicted, e + s.n_reference
-    return prf(m, p, e)
+    return _prf(m, p, e)
 
 
 def hit_rate(predicted: np.ndarray, reference: np.ndarray, tolerance: float) -> np.ndarray:
-    """(E,) bool: is there any predicted point within tolerance of each reference event (not one-to-one)?"""
+    """(E,) bool: is there any predicted point within tolerance (>= 0) of each reference event (not
+    one-to-one)? Events in the given order."""
     pred = _as_sorted_points("predicted", predicted)
-    ref = np.asarray(reference, dtype=np.float64).reshape(-1)
+    ref = check_finite(
+        "reference", check_array("reference", reference, finite=False).reshape(-1), axes=("index",)
+    )
+    tolerance = check_real("tolerance", tolerance, low=0.0)
     if pred.size == 0:
         return np.zeros(ref.size, dtype=bool)
     lo = np.searchsorted(pred, ref - tolerance, side="left")

@@ -51,6 +51,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._validation import check_array, check_choice, check_int_array, check_real, fail
+
 EVENT_KINDS: tuple[str, ...] = ("close", "open", "contact")
 
 
@@ -76,18 +78,20 @@ class EventThresholds:
     noise_multiple: float = 4.0
 
     def __post_init__(self) -> None:
-        checks = {
-            "closed_fraction": 0.0 < self.closed_fraction < 1.0,
-            "onset_fraction": 0.0 < self.onset_fraction < self.closed_fraction,
-            "min_hold_s": self.min_hold_s >= 0.0,
-            "min_span": self.min_span > 0.0,
-            "min_contrast": self.min_contrast > 0.0,
-            "contact_fraction": 0.0 < self.contact_fraction < 1.0,
-            "noise_multiple": self.noise_multiple >= 0.0,
-        }
-        for name, ok in checks.items():
-            if not (ok and np.isfinite(getattr(self, name))):
-                raise ValueError(f"EventThresholds: invalid {name}={getattr(self, name)!r}")
+        name = "EventThresholds."
+        closed = check_real(
+            name + "closed_fraction", self.closed_fraction, low=0.0, high=1.0, low_open=True, high_open=True
+        )
+        check_real(
+            name + "onset_fraction", self.onset_fraction, low=0.0, high=closed, low_open=True, high_open=True
+        )
+        check_real(name + "min_hold_s", self.min_hold_s, low=0.0, unit="s")
+        check_real(name + "min_span", self.min_span, low=0.0, low_open=True)
+        check_real(name + "min_contrast", self.min_contrast, low=0.0, low_open=True)
+        check_real(
+            name + "contact_fraction", self.contact_fraction, low=0.0, high=1.0, low_open=True, high_open=True
+        )
+        check_real(name + "noise_multiple", self.noise_multiple, low=0.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -131,36 +135,36 @@ class ReferenceEvents:
 
     def of_kind(self, kind: str) -> np.ndarray:
         """Frames of the events of one kind."""
-        if kind not in EVENT_KINDS:
-            raise ValueError(f"unknown event kind {kind!r}; expected one of {EVENT_KINDS}")
+        check_choice("kind", kind, EVENT_KINDS)
         return self.frames[self.kinds == kind]
 
 
-def _check_series(name: str, values: np.ndarray, n: int) -> np.ndarray:
-    v = np.asarray(values, dtype=np.float64)
+def _check_series(name: str, values: object, n: int) -> np.ndarray:
+    """A finite (n,) float series ((n, 1) reads as (n,))."""
+    v = check_array(name, values, finite=False)
     if v.ndim == 2 and v.shape[1] == 1:
         v = v[:, 0]
     if v.shape != (n,):
-        raise ValueError(f"{name} must have shape ({n},) to match times, got {np.shape(values)}")
-    bad = ~np.isfinite(v)
-    if bad.any():
-        raise ValueError(f"{name} is not finite at frame {int(np.argmax(bad))}")
-    return v
+        fail(name, f"have shape ({n},) to match times, got shape {np.shape(values)}")
+    return check_array(name, v, axes=("frame",))
 
 
-def _check_times(times: np.ndarray) -> np.ndarray:
-    t = np.asarray(times, dtype=np.float64)
-    if t.ndim != 1 or t.size < 2:
-        raise ValueError(f"times must have shape (T,) with T >= 2, got {np.shape(times)}")
-    if not np.isfinite(t).all():
-        raise ValueError(f"times is not finite at frame {int(np.argmax(~np.isfinite(t)))}")
+def _check_times(times: object) -> np.ndarray:
+    """Finite, strictly increasing (T,) seconds with T >= 2."""
+    t = check_array("times", times, ndim=1, min_len=2, axes=("frame",))
     dt = np.diff(t)
     if (dt <= 0).any():
         i = int(np.argmax(dt <= 0)) + 1
-        raise ValueError(
-            f"times must be strictly increasing; frame {i} ({t[i]:.6f} s) follows {t[i - 1]:.6f} s"
-        )
+        fail("times", f"be strictly increasing, got {t[i - 1]:.6f} s -> {t[i]:.6f} s at frame {i}")
     return t
+
+
+def _thresholds(thresholds: object) -> EventThresholds:
+    if thresholds is None:
+        return EventThresholds()
+    if not isinstance(thresholds, EventThresholds):
+        fail("thresholds", f"be EventThresholds or None, got {type(thresholds).__name__}")
+    return thresholds
 
 
 def runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -185,10 +189,14 @@ def _hold_frames(times: np.ndarray, hold_s: float) -> int:
 def gripper_intervals(
     times: np.ndarray, gripper: np.ndarray, thresholds: EventThresholds | None = None
 ) -> GripperIntervals:
-    """Closed intervals and close / open onsets of the gripper opening (T,) (0 open .. 1 closed)."""
-    th = EventThresholds() if thresholds is None else thresholds
+    """Closed intervals and close / open onsets of the gripper opening (T,) (0 open .. 1 closed) at
+    times (T,) s, strictly increasing."""
     t = _check_times(times)
-    g = _check_series("gripper", gripper, t.size)
+    return _gripper_intervals(t, _check_series("gripper", gripper, t.size), _thresholds(thresholds))
+
+
+def _gripper_intervals(t: np.ndarray, g: np.ndarray, th: EventThresholds) -> GripperIntervals:
+    """:func:`gripper_intervals` of checked inputs."""
     lo, hi = np.percentile(g, [1.0, 99.0])
     span = float(hi - lo)
     empty = np.zeros(0, dtype=np.int64)
@@ -220,10 +228,21 @@ def contact_onsets(
     intervals: GripperIntervals,
     thresholds: EventThresholds | None = None,
 ) -> tuple[np.ndarray, bool, float]:
-    """Finger contact onsets, one per closed interval at most: (frames (C,), finger_force_ok, contrast)."""
-    th = EventThresholds() if thresholds is None else thresholds
+    """Finger contact onsets, one per closed interval at most: (frames (C,), finger_force_ok, contrast).
+
+    times (T,) s strictly increasing; finger_force (T,) raw reading; intervals from `gripper_intervals`
+    of the same times."""
     t = _check_times(times)
     f = _check_series("finger_force", finger_force, t.size)
+    if not isinstance(intervals, GripperIntervals) or intervals.normalised.shape != t.shape:
+        fail("intervals", f"be the GripperIntervals of these {t.size} frames (see gripper_intervals)")
+    return _contact_onsets(t, f, intervals, _thresholds(thresholds))
+
+
+def _contact_onsets(
+    t: np.ndarray, f: np.ndarray, intervals: GripperIntervals, th: EventThresholds
+) -> tuple[np.ndarray, bool, float]:
+    """:func:`contact_onsets` of checked inputs."""
     empty = np.zeros(0, dtype=np.int64)
     if not intervals.ok or intervals.starts.size == 0:
         return empty, False, 0.0
@@ -265,14 +284,15 @@ def reference_events(
     times (T,) s strictly increasing; gripper (T,) opening 0 open .. 1 closed; finger_force (T,) raw
     reading or None. Raises ValueError naming the array for a wrong shape, NaN/inf or non-increasing times.
     """
-    th = EventThresholds() if thresholds is None else thresholds
+    th = _thresholds(thresholds)
     t = _check_times(times)
-    iv = gripper_intervals(t, gripper, th)
+    iv = _gripper_intervals(t, _check_series("gripper", gripper, t.size), th)
     frames = [iv.close_onsets, iv.open_onsets[iv.open_onsets >= 0]]
     kinds = [np.full(frames[0].size, "close"), np.full(frames[1].size, "open")]
     finger_ok, contrast = False, 0.0
     if finger_force is not None:
-        contact, finger_ok, contrast = contact_onsets(t, finger_force, iv, th)
+        f = _check_series("finger_force", finger_force, t.size)
+        contact, finger_ok, contrast = _contact_onsets(t, f, iv, th)
         frames.append(contact)
         kinds.append(np.full(contact.size, "contact"))
     all_frames = np.concatenate(frames).astype(np.int64)
@@ -302,9 +322,8 @@ def merge_events(frames: np.ndarray, within: float) -> np.ndarray:
     that puts one boundary at the grasp has found that event, and should not be asked for two
     boundaries closer than its own resolution.
     """
-    f = np.sort(np.asarray(frames, dtype=np.int64))
-    if within < 0 or not np.isfinite(within):
-        raise ValueError(f"within must be a finite number >= 0, got {within!r}")
+    within = check_real("within", within, low=0.0)
+    f = np.sort(check_int_array("frames", frames))
     if f.size == 0:
         return f
     group = np.concatenate(([0], np.cumsum(np.diff(f) > within)))

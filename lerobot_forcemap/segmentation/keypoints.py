@@ -1,4 +1,4 @@
-"""Per-stream keypoints (SPEC §2, paper §III-D), vectorised.
+"""Per-stream keypoints, vectorised (``docs/segmentation.md``).
 
 For one stream (samples x (n, k), times t (n,)):
 
@@ -29,6 +29,9 @@ average sample, and count up to grace + 1 leading below-threshold samples into a
 A stream whose smoothed jerk is zero everywhere (a gripper that never moves), or no larger than
 floating-point round-off could make it (an exactly linear ramp), is flat: s = 0, no keypoints, no
 division by zero (`roundoff_jerk`).
+
+The public functions check their inputs; `analyse_stream` (segment.py) calls the unchecked cores
+(`_keypoints`, `_savgol_third_derivative`, `_threshold_runs`) on a checked `Stream`.
 """
 
 from __future__ import annotations
@@ -39,7 +42,8 @@ from functools import lru_cache
 import numpy as np
 from scipy.signal import savgol_coeffs
 
-from .config import Derivative
+from .._validation import check_array, check_real, fail
+from .config import Derivative, SegmentationConfig
 
 # A stream whose smoothed jerk stays below this fraction of the largest jerk its value range could
 # produce is flat (round-off only). Real signals sit many orders of magnitude above it.
@@ -76,13 +80,28 @@ def savgol_third_derivative_kernels(window: int, polyorder: int) -> tuple[np.nda
 
 
 def savgol_third_derivative(x: np.ndarray, dt: float, window: int, polyorder: int) -> np.ndarray:
-    """Savitzky–Golay third derivative of x (n, k) with sample spacing dt; returns (n, k).
+    """Savitzky–Golay third derivative of x (n, k) with sample spacing dt > 0; returns (n, k).
 
     Equals scipy.signal.savgol_filter(x, window, polyorder, deriv=3, delta=dt, axis=0, mode="interp").
-    Requires n >= window.
+    Requires n >= window, window >= 5 and 3 <= polyorder < window.
     """
-    if np.ndim(x) != 2 or x.shape[0] < window:
-        raise ValueError(f"x must have shape (n, k) with n >= window={window}, got {np.shape(x)}")
+    SegmentationConfig(window=window, polyorder=polyorder)  # checks both, naming the field
+    x = check_array("x", x, ndim=2)
+    if x.shape[0] < window or x.shape[1] < 1:
+        fail("x", f"have shape (n, k) with n >= window={window} and k >= 1, got shape {x.shape}")
+    dt = check_real("dt", dt, low=0.0, low_open=True, unit="s")
+    try:
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            out = _savgol_third_derivative(x, dt, window, polyorder)
+    except OverflowError:  # dt**3 of a Python float
+        out = None
+    if out is None or not np.isfinite(out).all():
+        fail("x", f"have a third derivative within float64's range at dt={dt:g} s (choose other units)")
+    return out
+
+
+def _savgol_third_derivative(x: np.ndarray, dt: float, window: int, polyorder: int) -> np.ndarray:
+    """:func:`savgol_third_derivative` of checked inputs."""
     n, k = x.shape
     conv, left, right = savgol_third_derivative_kernels(window, polyorder)
     out = np.empty((n, k))
@@ -114,7 +133,7 @@ def jerk_norm(
     """L2 norm over columns of the third derivative: (n,) for savgol, (n-3,) for difference."""
     if derivative == "savgol":
         dt = float(np.median(np.diff(t)))
-        d3 = savgol_third_derivative(x, dt, window, polyorder)
+        d3 = _savgol_third_derivative(x, dt, window, polyorder)
     else:
         d3 = difference_third_derivative(x, t)
     if d3.shape[1] == 1:
@@ -157,10 +176,19 @@ def normalised_signal(jerk: np.ndarray, window: int, flat_below: float = 0.0) ->
 def threshold_runs(signal: np.ndarray, threshold: float, min_run: int, grace: int) -> np.ndarray:
     """Start indices of the runs of `signal >= threshold` that give keypoints (see module doc).
 
-    Vectorised: runs of above-threshold samples from np.diff of the padded mask, gaps of at most
-    `grace` samples merged, then filtered by length and by "not starting at sample 0".
-    Returns an int64 array of run starts (indices into `signal`), sorted.
+    signal (m,) finite; threshold a number; min_run >= 1 and grace >= 0 samples. Returns an int64
+    array of run starts (indices into `signal`), sorted.
     """
+    signal = check_array("signal", signal, ndim=1, axes=("index",))
+    threshold = check_real("threshold", threshold)
+    config = SegmentationConfig(min_run=min_run, grace=grace)  # checks both, naming the field
+    return _threshold_runs(signal, threshold, config.min_run, config.grace)
+
+
+def _threshold_runs(signal: np.ndarray, threshold: float, min_run: int, grace: int) -> np.ndarray:
+    """:func:`threshold_runs` of checked inputs. Vectorised: runs of above-threshold samples from
+    np.diff of the padded mask, gaps of at most `grace` samples merged, then filtered by length and
+    by "not starting at sample 0"."""
     above = signal >= threshold
     edges = np.diff(np.concatenate(([False], above, [False])).astype(np.int8))
     starts = np.flatnonzero(edges == 1)
@@ -200,21 +228,40 @@ def stream_keypoints(
     derivative: Derivative = "savgol",
     polyorder: int = 4,
 ) -> StreamKeypoints:
-    """Keypoints of one stream, x (n, k) at strictly increasing times t (n,), as sample indices (see module doc).
-
-    `Stream` and `segment_streams` check (and repair) their input first; called directly, the arrays are
-    checked here: a decreasing time would give keypoints without a word."""
-    x, t = np.asarray(x, dtype=np.float64), np.asarray(t, dtype=np.float64)
+    """Keypoints of one stream, x (n, k) finite at strictly increasing times t (n,) in seconds, as
+    sample indices (see module doc). threshold in (0, 1]; window, min_run, grace, derivative and
+    polyorder as in `SegmentationConfig` (which checks them here, naming its fields)."""
+    SegmentationConfig(
+        window=window, min_run=min_run, grace=grace, derivative=derivative, polyorder=polyorder
+    )
+    threshold = check_real("threshold", threshold, low=0.0, high=1.0, low_open=True)
+    x = check_array("x", x, axes=("frame", "column"))
     needed = window + (3 if derivative == "difference" else 0)
-    if x.ndim != 2 or t.shape != (x.shape[0],) or x.shape[0] < needed:
-        raise ValueError(
-            f"x (n, k) and t (n,) with n >= {needed} (window={window}, derivative={derivative!r}) expected, "
-            f"got {x.shape} and {t.shape}"
+    if x.ndim != 2 or x.shape[0] < needed or x.shape[1] < 1:
+        fail(
+            "x",
+            f"have shape (n, k) with n >= {needed} (window={window}, derivative={derivative!r}), got "
+            f"shape {x.shape}",
         )
-    if not (np.isfinite(x).all() and np.isfinite(t).all()):
-        raise ValueError("x and t must be finite")
+    t = check_array("t", t, shape=(x.shape[0],), axes=("frame",))
     if not (np.diff(t) > 0).all():
-        raise ValueError(f"t must be strictly increasing; step {int(np.argmax(np.diff(t) <= 0))} is not")
+        fail("t", f"be strictly increasing, got a step <= 0 after frame {int(np.argmax(np.diff(t) <= 0))}")
+    return _keypoints("x", x, t, threshold, window, min_run, grace, derivative, polyorder)
+
+
+def _keypoints(
+    name: str,
+    x: np.ndarray,
+    t: np.ndarray,
+    threshold: float,
+    window: int,
+    min_run: int,
+    grace: int,
+    derivative: Derivative,
+    polyorder: int,
+) -> StreamKeypoints:
+    """:func:`stream_keypoints` of checked inputs; ``name`` is what a third derivative outside float64's
+    range is blamed on."""
     x = x - x[0]  # exact zeros for a constant stream; better conditioned differences
     try:
         with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
@@ -224,13 +271,14 @@ def stream_keypoints(
         jerk, flat_below = None, float("inf")
     if jerk is None or not np.isfinite(flat_below) or not np.isfinite(jerk).all():
         # an infinite jerk would make the stream look flat (or everywhere active) without saying so
-        raise ValueError(
-            f"values changing by up to {float(np.abs(x).max()):.3g} over time steps of "
-            f"{float(np.min(np.diff(t))):.3g}..{float(np.max(np.diff(t))):.3g} s: the third derivative leaves "
-            "float64's range (choose other units)"
+        steps = np.diff(t)
+        fail(
+            name,
+            "have a third derivative within float64's range (choose other units), got values changing by "
+            f"up to {float(np.abs(x).max()):.3g} over time steps of {float(np.min(steps)):.3g}.."
+            f"{float(np.max(steps)):.3g} s",
         )
     signal = normalised_signal(jerk, window, flat_below)
-    flat = not signal.any()
-    starts = threshold_runs(signal, threshold, min_run, grace)
+    starts = _threshold_runs(signal, threshold, min_run, grace)
     keypoints = np.minimum(starts + window // 2, x.shape[0] - 1)
-    return StreamKeypoints(keypoints=keypoints, signal=signal, flat=flat)
+    return StreamKeypoints(keypoints=keypoints, signal=signal, flat=not signal.any())

@@ -1,4 +1,8 @@
-"""`segment_streams`: keypoints per stream -> pmfs -> combined pmf -> changepoints (SPEC §2)."""
+"""`segment_streams`: keypoints per stream -> pmfs -> combined pmf -> changepoints.
+
+The public functions here (`segment_streams`, `analyse_stream`) check their arguments once; the
+stages below them (keypoints, pmfs, combination, changepoints) run their unchecked cores.
+"""
 
 from __future__ import annotations
 
@@ -7,10 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .changepoints import enforce_min_segment_length, peak_changepoints, sample_changepoints
-from .combine import combine_pmfs, stream_pmf
+from .._validation import fail
+from .changepoints import _min_segment_length, _peaks, _sample
+from .combine import _combine, _stream_pmf
 from .config import SegmentationConfig, Stream, check_config, stream_list
-from .keypoints import stream_keypoints
+from .keypoints import _keypoints
 from .timebase import (
     TimeRepair,
     check_shared_time_base,
@@ -106,13 +111,23 @@ class StreamAnalysis:
     time_repair: TimeRepair | None
 
 
-def analyse_stream(stream: Stream, config: SegmentationConfig) -> StreamAnalysis:
-    """Keypoints of one stream on its own (duplicated timestamps repaired per `config.duplicate_times`)."""
+def analyse_stream(stream: Stream, config: SegmentationConfig | None = None) -> StreamAnalysis:
+    """Keypoints of one stream on its own (duplicated timestamps repaired per `config.duplicate_times`).
+
+    Raises ValueError naming the stream when it is shorter than the derivative needs, or its third
+    derivative leaves float64's range."""
+    if not isinstance(stream, Stream):
+        fail("analyse_stream(stream=...)", f"be a Stream, got {type(stream).__name__}")
+    return _analyse(stream, check_config(config, "analyse_stream"))
+
+
+def _analyse(stream: Stream, config: SegmentationConfig) -> StreamAnalysis:
+    """:func:`analyse_stream` of a checked stream and config."""
     repair = repair_duplicate_times(stream, config)
     x, t = stream.values, stream.times
-    if repair is not None:
-        x, t = x[repair.kept_frames], t[repair.kept_frames]
     kept = None if repair is None else repair.kept_frames
+    if repair is not None:
+        x, t = x[kept], t[kept]
     if config.derivative == "savgol":
         warn_uneven_spacing(stream.name, t, kept)
     if len(t) >= 2:
@@ -120,25 +135,35 @@ def analyse_stream(stream: Stream, config: SegmentationConfig) -> StreamAnalysis
     needed = config.window + (3 if config.derivative == "difference" else 0)
     if x.shape[0] < needed:
         extra = f" after dropping {repair.n_dropped} duplicated-timestamp samples" if repair else ""
-        raise ValueError(
-            f"stream {stream.name!r}: {x.shape[0]} samples{extra}, but window={config.window} with"
-            f" derivative={config.derivative!r} needs at least {needed}"
+        fail(
+            f"Stream({stream.name!r}).values",
+            f"hold at least {needed} samples for window={config.window} with derivative="
+            f"{config.derivative!r}, got {x.shape[0]}{extra}",
         )
-    try:
-        found = stream_keypoints(
-            x,
-            t,
-            threshold=stream.threshold,
-            window=config.window,
-            min_run=config.min_run,
-            grace=config.grace,
-            derivative=config.derivative,
-            polyorder=config.polyorder,
-        )
-    except ValueError as err:
-        raise ValueError(f"stream {stream.name!r}: {err}") from None
-    keypoints = found.keypoints if repair is None else repair.kept_frames[found.keypoints]
+    found = _keypoints(
+        f"Stream({stream.name!r}).values",
+        x,
+        t,
+        stream.threshold,
+        config.window,
+        config.min_run,
+        config.grace,
+        config.derivative,
+        config.polyorder,
+    )
+    keypoints = found.keypoints if kept is None else kept[found.keypoints]
     return StreamAnalysis(keypoints=keypoints, signal=found.signal, flat=found.flat, time_repair=repair)
+
+
+def checked_streams(streams: object, config: SegmentationConfig, caller: str) -> tuple[list[Stream], float]:
+    """The streams of one call to `caller`: a non-empty list of uniquely named `Stream` objects on one
+    time base. Returns them and the time tolerance used (s)."""
+    streams = stream_list(streams, caller)
+    names = [s.name for s in streams]
+    if len(set(names)) != len(names):
+        dup = sorted({n for n in names if names.count(n) > 1})
+        fail(f"{caller}(streams=...)", f"hold streams of unique names, got {dup} more than once")
+    return streams, check_shared_time_base(streams, config)
 
 
 def segment_streams(
@@ -151,49 +176,23 @@ def segment_streams(
     decreasing times are caught when each `Stream` is built).
     """
     config = check_config(config, "segment_streams")
-    streams = stream_list(streams, "segment_streams")
-    names = [s.name for s in streams]
-    if len(set(names)) != len(names):
-        dup = sorted({n for n in names if names.count(n) > 1})
-        raise ValueError(f"stream names must be unique, repeated: {dup}")
+    streams, tolerance = checked_streams(streams, config, "segment_streams")
     weights = np.array([s.weight for s in streams])
     if not (weights > 0).any():
-        raise ValueError(f"all stream weights are zero ({names}): at least one stream needs a weight > 0")
-    tolerance = check_shared_time_base(streams, config)
-    n_frames = streams[0].n_frames
-
-    sigma = config.sigma_frames
-    per_stream: dict[str, StreamResult] = {}
-    pmfs = np.empty((len(streams), n_frames))
-    floors = np.empty(len(streams))
-    for i, s in enumerate(streams):  # streams, not samples
-        found = analyse_stream(s, config)
-        pmfs[i], floors[i] = stream_pmf(found.keypoints, n_frames, sigma, config.floor)
-        per_stream[s.name] = StreamResult(
-            name=s.name,
-            weight=s.weight,
-            threshold=s.threshold,
-            keypoints=found.keypoints,
-            pmf=pmfs[i],
-            floor_level=float(floors[i]),
-            signal=found.signal,
-            flat=found.flat,
-            time_repair=found.time_repair,
-            used=bool(s.weight > 0),
+        fail(
+            "segment_streams(streams=...)",
+            f"give at least one stream a weight > 0, got all weights 0 ({[s.name for s in streams]})",
         )
-
-    pmf, floor_level = combine_pmfs(pmfs, floors, weights, config.mode)
+    per_stream, pmfs, floors = _stream_results(streams, config)
+    pmf, floor_level = _combine(pmfs, floors, weights, config.mode)
+    n_frames = pmf.size
     draws = None
     if config.changepoints == "sample":
-        candidates, draws = sample_changepoints(
-            pmf, config.rng(), config.n_samples, config.n_pass, config.window
-        )
+        candidates, draws = _sample(pmf, config.rng(), config.n_samples, config.n_pass, config.window)
     else:
-        candidates = peak_changepoints(pmf, floor_level, config.peak_ratio, config.window)
+        candidates = _peaks(pmf, floor_level, config.peak_ratio, config.window)
     strength = pmf[np.clip(candidates, 0, n_frames - 1)]
-    changepoints, rejected = enforce_min_segment_length(
-        candidates, strength, n_frames, config.min_segment_frames
-    )
+    changepoints, rejected = _min_segment_length(candidates, strength, n_frames, config.min_segment_frames)
     return SegmentationResult(
         changepoints=changepoints,
         pmf=pmf,
@@ -206,3 +205,29 @@ def segment_streams(
         time_tolerance=tolerance,
         config=config,
     )
+
+
+def _stream_results(
+    streams: list[Stream], config: SegmentationConfig
+) -> tuple[dict[str, StreamResult], np.ndarray, np.ndarray]:
+    """Per stream: keypoints, pmf and diagnostics; the pmfs (n, T) and their floor levels (n,)."""
+    n_frames = streams[0].n_frames
+    per_stream: dict[str, StreamResult] = {}
+    pmfs = np.empty((len(streams), n_frames))
+    floors = np.empty(len(streams))
+    for i, s in enumerate(streams):  # streams, not samples
+        found = _analyse(s, config)
+        pmfs[i], floors[i] = _stream_pmf(found.keypoints, n_frames, config.sigma_frames, config.floor)
+        per_stream[s.name] = StreamResult(
+            name=s.name,
+            weight=s.weight,
+            threshold=s.threshold,
+            keypoints=found.keypoints,
+            pmf=pmfs[i],
+            floor_level=float(floors[i]),
+            signal=found.signal,
+            flat=found.flat,
+            time_repair=found.time_repair,
+            used=bool(s.weight > 0),
+        )
+    return per_stream, pmfs, floors

@@ -1,4 +1,4 @@
-"""Time-base checks and the duplicated-timestamp repair (SPEC §2: guard against zero time steps).
+"""Time-base checks and the duplicated-timestamp repair (a guard against zero time steps).
 
 A zero time step makes a finite-difference jerk infinite/NaN and distorts a Savitzky–Golay jerk
 (the filter assumes evenly spaced samples). One GBTI demo, upsampled from 941 to 1000 points,
@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._validation import fail
 from .config import SegmentationConfig, Stream
 
 
@@ -121,9 +122,11 @@ def repair_duplicate_times(stream: Stream, config: SegmentationConfig) -> TimeRe
         return None
     dropped = np.flatnonzero(duplicate) + 1
     if config.duplicate_times == "raise":
-        raise ValueError(
-            f"stream {stream.name!r}: duplicated timestamp at frame {int(dropped[0])}"
-            f" (t = {stream.times[dropped[0]]:.9f} s, {dropped.size} duplicated frames in all)"
+        fail(
+            f"Stream({stream.name!r}).times",
+            "hold no duplicated timestamp with SegmentationConfig.duplicate_times='raise', got one at "
+            f"frame {int(dropped[0])} (t = {stream.times[dropped[0]]:.9f} s, {dropped.size} duplicated "
+            "frames in all)",
         )
     keep = np.ones(stream.n_frames, dtype=bool)
     keep[dropped] = False
@@ -154,17 +157,16 @@ def check_shared_time_base(streams: Sequence[Stream], config: SegmentationConfig
         positive = dt[dt > 0]
         tolerance = 2.0 * float(np.median(positive)) if positive.size else 0.0
     for s in streams[1:]:
+        name = f"Stream({s.name!r}).times"
+        share = f"share the time base of Stream({ref.name!r}) (interpolate the streams onto one)"
         if s.n_frames != ref.n_frames:
-            raise ValueError(
-                f"stream {s.name!r} has {s.n_frames} samples but stream {ref.name!r} has {ref.n_frames}:"
-                " all streams of one segmentation must share one time base (interpolate them onto it)"
-            )
+            fail(name, f"{share}, got {s.n_frames} samples against {ref.n_frames}")
         off = np.abs(s.times - ref.times)
         if (off > tolerance).any():
             frame = int(np.argmax(off > tolerance))
-            raise ValueError(
-                f"stream {s.name!r}: sample time at frame {frame} differs from stream {ref.name!r}'s by"
-                f" {off[frame]:.6f} s (tolerance {tolerance:.6f} s): all streams must share one time base"
-                " (interpolate them onto it)"
+            fail(
+                name,
+                f"{share}, got a sample time at frame {frame} that differs by {off[frame]:.6f} s (tolerance "
+                f"{tolerance:.6f} s)",
             )
     return tolerance

@@ -134,9 +134,21 @@ def test_bad_input(dataset):
     assert layout.SEGMENT_INDEX not in load(dataset).meta.features
     assert layout.SEGMENT_INDEX not in pq.read_schema(next((dataset / "data").glob("*/*.parquet"))).names
     for flag, value, message in (
-        ("--weights", "wrist_force=nan", "stream 'wrist_force': weight must be finite and >= 0, got nan"),
-        ("--weights", "wrist_force=-1", "stream 'wrist_force': weight must be finite and >= 0, got -1.0"),
-        ("--thresholds", "wrist_force=1.5", r"stream 'wrist_force': threshold is a fraction .* got 1.5"),
+        (
+            "--weights",
+            "wrist_force=nan",
+            r"Stream\('wrist_force'\).weight: must be a finite number >= 0 and <= 1e\+100, got nan",
+        ),
+        (
+            "--weights",
+            "wrist_force=-1",
+            r"Stream\('wrist_force'\).weight: must be a finite number >= 0 and <= 1e\+100, got -1.0",
+        ),
+        (
+            "--thresholds",
+            "wrist_force=1.5",
+            r"Stream\('wrist_force'\).threshold: must be a finite number > 0 and <= 1, got 1.5",
+        ),
         ("--weights", "wrist_force=high", "'wrist_force=high': 'high' is not a number"),
     ):  # a bad value is the flag's fault, not episode 0's; and that flag's, not "--weights/--thresholds"
         with pytest.raises(ValueError, match=rf"^{flag}:? {message}"):

@@ -19,7 +19,7 @@ def s_curve(n=600, seed=0, noise=5e-4):
 
 
 def dense_m_step(W, b, S, lam, mu):
-    """The normal equations solved densely, with E and R built from their definition (paper §III-C)."""
+    """The normal equations solved densely, with E and R built from their definition."""
     n, d = W.shape
     E = np.zeros((n - 1, n))
     E[np.arange(n - 1), np.arange(n - 1)] = -1

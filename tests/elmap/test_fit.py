@@ -6,6 +6,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from lerobot_forcemap.elmap import (
+    MAX_NODES,
     Constraints,
     assign_nearest,
     cluster_sums,
@@ -15,7 +16,7 @@ from lerobot_forcemap.elmap import (
     resolve_constraints,
     solve_m_step_banded,
 )
-from lerobot_forcemap.elmap.fit import NearestNodeAssigner, arc_length_resample
+from lerobot_forcemap.elmap.fit import arc_length_resample
 from lerobot_forcemap.elmap.timing import node_time_law
 
 from .helpers import line_demo, s_curve
@@ -116,66 +117,6 @@ def test_last_step_is_how_far_the_last_iteration_moved_the_nodes(with_force):
         assert fits[1].last_spring_step > done.step_tolerance >= done.last_spring_step
     else:
         assert fits[1].last_spring_step == done.last_spring_step == 0.0
-
-
-def _brute_force_nearest(x, y):
-    """Distances from differences, argmin ties to the lowest index."""
-    return np.argmin(np.linalg.norm(x[:, None, :] - y[None, :, :], axis=2), axis=1)
-
-
-@pytest.mark.parametrize("offset", [0.0, 1e2, 1e4])
-def test_assignment_is_exact_far_from_the_origin_and_ties_go_to_the_lowest_node(offset):
-    """``‖x‖² − 2x·y + ‖y‖²`` loses digits to a far origin and rounds differently from the differences
-    the compiled E-step sums: near-ties are decided again from differences, exact ties to the lowest index."""
-    t = np.linspace(0.0, 1.0, 500)
-    x = np.stack([t, np.sin(6 * t)], axis=1) * 0.01 + offset  # a 1 cm path, `offset` metres out
-    y = arc_length_resample(x, 50)
-    y = np.concatenate([y, y[::-1]])  # every node twice: the second copy must never win
-    want = _brute_force_nearest(x, y)
-    assert want.max() < 50
-    np.testing.assert_array_equal(assign_nearest(x, y), want)
-    assigner = NearestNodeAssigner(x)
-    np.testing.assert_array_equal(assigner(y), want)
-    y2 = y.copy()
-    y2[[3, 96]] += 1e-4  # a node and the twin of another move: later E-steps keep the tie rule
-    np.testing.assert_array_equal(assigner(y2), _brute_force_nearest(x, y2))
-
-
-def test_bounded_assigner_matches_brute_force():
-    rng = np.random.default_rng(3)
-    x = rng.normal(size=(2000, 3))
-    y = rng.normal(size=(40, 3))
-    assigner = NearestNodeAssigner(x)
-    for k in range(25):
-        np.testing.assert_array_equal(assigner(y), assign_nearest(x, y))
-        y = y + rng.normal(scale=0.1 / (k + 1) ** 2, size=y.shape)
-
-
-@pytest.mark.parametrize("path", ["s_curve", "fold"])
-def test_bounded_assigner_stays_exact_when_a_few_nodes_move(path):
-    """EM moves a few nodes at a time (the case the window bounds are for). The fold goes down and back
-    up the same line, as a press does, so nodes outside a sample's window lie right next to it and
-    the triangle bound and full rows have to step in."""
-    rng = np.random.default_rng(5)
-    if path == "s_curve":
-        x = s_curve(n=1500, seed=5)
-    else:
-        t = np.linspace(0.0, 1.0, 1500)
-        x = np.stack([1e-3 * t, np.zeros_like(t), 0.1 * (1 - np.abs(2 * t - 1))], axis=1)
-        x += 2e-4 * rng.normal(size=x.shape)
-    y = x[np.linspace(0, len(x) - 1, 60).astype(int)].copy()
-    assigner = NearestNodeAssigner(x, window_size=5)
-    full_rows = []
-    original_full = assigner._full
-    assigner._full = lambda idx, nodes: (full_rows.append(idx), original_full(idx, nodes))
-    for k in range(40):
-        np.testing.assert_array_equal(assigner(y), assign_nearest(x, y))
-        moving = rng.choice(len(y), 3, replace=False)
-        y[moving] += rng.normal(scale=2e-3 / (1 + k % 10), size=(3, 3))
-    partial = [len(i) for i in full_rows if not isinstance(i, slice)]
-    if path == "fold":
-        assert partial, "the fold should need full rows for some samples"
-    assert sum(partial) < 40 * len(x) // 10  # the bounds still spare most of the work
 
 
 # ---- constraints through the fit
@@ -286,12 +227,51 @@ def test_infeasible_force_limit_names_force_limit():
     x = line_demo(n=100)
     f = np.zeros_like(x)
     f[50, 2], f[51, 2] = 60.0, -60.0
-    with pytest.raises(ValueError, match="^force_limit: the constraint set is infeasible"):
+    with pytest.raises(ValueError, match="^force_limit: must describe a feasible set of node positions"):
         fit_force_elastic_map(x, f, n_nodes=10, force_limit=20.0, stiffness=100.0)
-    with pytest.raises(ValueError, match="^constraints and force_limit: the constraint set is infeasible"):
+    with pytest.raises(
+        ValueError, match="^constraints and force_limit: must describe a feasible set of node positions"
+    ):
         fit_force_elastic_map(
             x, f, n_nodes=10, force_limit=20.0, stiffness=100.0, constraints=Constraints(max_step=1.0)
         )
+
+
+def test_a_clarabel_m_step_without_a_solution_names_the_constraints_and_what_to_change():
+    """Two nearly parallel half-spaces (z <= 0 and z >= 1e-6·x) leave the nodes a sliver along x = 0 that
+    Clarabel cannot converge into (status InsufficientProgress); its failure named no argument."""
+    x = line_demo(n=50)
+    sliver = Constraints(halfspaces=[([0.0, 0.0, 1.0], 0.0), ([1e-6, 0.0, -1.0], 0.0)])
+    with pytest.raises(
+        ValueError,
+        match=r"^constraints: must give the Clarabel M-step a problem it can solve \(loosen or remove nearly "
+        r"contradictory or nearly parallel inequalities, .*\), got status (?!Solved)\w+ \(EM iteration \d+\)$",
+    ):
+        fit_force_elastic_map(x, n_nodes=20, constraints=sliver)
+
+
+@pytest.mark.parametrize(
+    ("user", "limits", "blamed"),
+    [
+        (True, False, "constraints"),
+        (False, True, "force_limit"),
+        (True, True, "constraints and force_limit"),
+        (False, False, "solver"),
+    ],
+)
+@pytest.mark.parametrize("status", ["NumericalError", "MaxIterations", "InsufficientProgress"])
+def test_every_unsolved_clarabel_status_is_charged_to_an_argument(user, limits, blamed, status):
+    import clarabel
+
+    from lerobot_forcemap.elmap.mstep import InequalityRows, _raise_unless_solved
+
+    rc = resolve_constraints(Constraints(max_step=1.0) if user else None, 5, 2)
+    extra = InequalityRows(np.array([1]), np.array([[0.0, 1.0]]), np.array([0.0])) if limits else None
+    with pytest.raises(
+        ValueError,
+        match=rf"^{blamed}: must give the Clarabel M-step a problem it can solve .*got status {status}$",
+    ):
+        _raise_unless_solved(getattr(clarabel.SolverStatus, status), rc, extra)
 
 
 # ---- force size
@@ -321,8 +301,8 @@ def test_several_demos_and_a_gripper_map():
     dense = s_curve(n=20000, noise=0.0)
     gap = np.min(np.linalg.norm(fit.nodes[:, None, :] - dense[None, :, :], axis=2), axis=1)
     assert np.max(gap) < 2e-3
-    # m identical demos scale W and b by m and S by m, i.e. the data term by m (SPEC: the squared
-    # cluster weight): exactly the map of one demo with λ/m and μ/m.
+    # m identical demos scale W and b by m and S by m, i.e. the data term by m (the
+    # squared cluster weight): exactly the map of one demo with λ/m and μ/m.
     copies = fit_force_elastic_map([base] * 3, n_nodes=40)
     one = fit_force_elastic_map(base, n_nodes=40, lam=0.01 / 3, mu=0.01 / 3)
     np.testing.assert_allclose(copies.nodes, one.nodes, atol=1e-12)
@@ -366,7 +346,7 @@ def test_time_law_and_orientation():
 
 
 def test_time_law_is_made_non_decreasing_on_an_out_and_back_path():
-    """SPEC §1 time law: mean cluster time "made non-decreasing" (a path that folds back over itself)."""
+    """The time law: node times are the clusters' mean times made non-decreasing (a path that folds back)."""
     t = np.linspace(0.0, 1.0, 201)
     x = np.zeros((201, 3))
     x[:, 0] = np.where(t <= 0.5, 2 * t, 1 - 0.8 * (t - 0.5))  # out to 1 m, back to 0.6 m
@@ -379,7 +359,7 @@ def test_time_law_is_made_non_decreasing_on_an_out_and_back_path():
 
 
 def test_time_law_interpolates_empty_clusters():
-    """SPEC §1 time law: "empty clusters interpolate" between the neighbouring clusters' mean times."""
+    """The time law: empty clusters interpolate between the neighbouring clusters' mean times."""
     labels = np.array([0, 0, 1, 4, 4])  # nodes 2 and 3 hold no sample
     u = np.array([0.0, 0.2, 0.3, 0.85, 0.95])  # cluster means 0.1, 0.3, -, -, 0.9
     times = node_time_law(labels, u, n_nodes=5, duration=2.0)
@@ -390,7 +370,7 @@ def test_time_law_interpolates_empty_clusters():
 
 
 def test_energy_tol_stops_at_the_first_small_relative_energy_change():
-    """SPEC §1 EM: stop when "the relative energy change is below `tol`" (reason "energy_tol")."""
+    """EM stops when the relative energy change is below `tol` (reason "energy_tol")."""
     x = s_curve()
     full = fit_force_elastic_map(x, n_nodes=60, tol=0.0)
     h = np.array(full.energy_history)
@@ -404,7 +384,7 @@ def test_energy_tol_stops_at_the_first_small_relative_energy_change():
 
 
 def test_an_alternating_assignment_stops_as_a_cycle():
-    """SPEC §1 EM: an assignment that repeats with period 2 stops with reason "cycle", not at max_iter."""
+    """EM: an assignment that repeats with period 2 stops with reason "cycle", not at max_iter."""
     x = np.random.default_rng(48).normal(size=(12, 1))
     kw = dict(n_nodes=4, lam=0.1, mu=0.1)
     fit = fit_force_elastic_map(x, max_iter=100, **kw)
@@ -420,7 +400,7 @@ def test_an_alternating_assignment_stops_as_a_cycle():
 
 
 def test_initial_map_is_equally_spaced_in_arc_length_not_in_time():
-    """SPEC §1 EM: "Init: arc-length resampling of the first demo" (a demo that dwells near its start)."""
+    """EM starts from the first demo resampled by arc length (a demo that dwells near its start)."""
     centres = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
     dwell = [20, 10, 5, 2, 1]  # samples per place: most of the demo's time is spent near x = 0
     offsets = [(0.0,), (-0.05, 0.0, 0.05), (-0.05, 0.0, 0.05), (-0.05, 0.0, 0.05), (0.0,)]
@@ -443,68 +423,92 @@ def test_initial_map_is_equally_spaced_in_arc_length_not_in_time():
     [
         (dict(positions=np.array([[0.0, 0], [np.nan, 1], [2, 2]])), r"positions\[0\].*frame 1"),
         (dict(positions=np.array([[0.0, 0], [1, np.inf], [2, 2]])), r"positions\[0\]"),
-        (dict(forces=np.zeros((5, 2))), r"^forces\[0\]: shape \(5, 2\) does not match positions\[0\]"),
+        (
+            dict(forces=np.zeros((5, 2))),
+            r"^forces\[0\]: must have the shape of positions\[0\], \(20, 3\), got shape \(5, 2\)",
+        ),
         (dict(forces=np.full((20, 3), np.nan)), r"forces\[0\]"),
-        (dict(n_nodes=2), "^n_nodes: need an integer >= 3, got 2"),
-        (dict(positions=np.zeros((1, 3))), r"^positions\[0\]: need at least 2 samples, got 1"),
-        (dict(lam=-0.1), "^lam: must be >= 0.0 and finite, got -0.1"),
-        (dict(mu=-1.0), "^mu: must be >= 0.0 and finite, got -1.0"),
-        (dict(delta=-0.01), "^delta: must be >= 0.0 and finite, got -0.01"),
-        (dict(stiffness=0.0), "^stiffness: must be > 0.0 and finite, got 0.0"),
-        (dict(rho_max=1.5), r"^rho_max: must be in \(0, 1\), got 1.5"),
-        (dict(times=np.arange(20.0)[::-1]), r"^times\[0\]: decreasing at frame 1"),
-        (dict(solver="osqp"), "^solver: expected 'auto', 'banded' or 'clarabel', got 'osqp'"),
+        (dict(n_nodes=2), "^n_nodes: must be an integer >= 3 and <= 10000, got 2"),
+        (
+            dict(positions=np.zeros((1, 3))),
+            r"^positions\[0\]: must hold at least 2 samples, got shape \(1, 3\)",
+        ),
+        (dict(lam=-0.1), "^lam: must be a finite number >= 0, got -0.1"),
+        (dict(mu=-1.0), "^mu: must be a finite number >= 0, got -1.0"),
+        (dict(delta=-0.01), "^delta: must be a finite number >= 0 and <= 1e\\+150 m, got -0.01"),
+        (dict(stiffness=0.0), "^stiffness: must be a finite number > 0 N/m, got 0.0"),
+        (dict(rho_max=1.5), "^rho_max: must be a finite number > 0 and < 1 or None, got 1.5"),
+        (
+            dict(times=np.arange(20.0)[::-1]),
+            r"^times\[0\]: must be non-decreasing, got 19 s -> 18 s at frame 1$",
+        ),
+        (dict(solver="osqp"), r"^solver: must be one of \['auto', 'banded', 'clarabel'\], got 'osqp'"),
         (dict(positions=[np.zeros((5, 3)), np.zeros((5, 2))]), r"positions\[1\]"),
-        (dict(force_limit=5.0), "force_limit: needs forces"),
+        (dict(force_limit=5.0), "^force_limit: must be None when forces is None"),
         (
             dict(constraints=Constraints(box=([np.inf, -1, -1], [np.inf, 1, 1]))),
-            r"constraints.box: lo\[0\]=inf",
+            r"^constraints.box: must leave room on every axis .*, got lo\[0\]=inf",
         ),
         (
             dict(constraints=Constraints(box=([-1, -1, -np.inf], [1, 1, -np.inf]))),
-            r"constraints.box: lo\[2\]",
+            r"^constraints.box: must leave room on every axis .*, got lo\[2\]=-inf",
         ),
-        (dict(constraints=Constraints(box=(["a", 0, 0], [1, 1, 1]))), "constraints.box lo: expected numbers"),
+        (
+            dict(constraints=Constraints(box=(["a", 0, 0], [1, 1, 1]))),
+            "^constraints.box.lo: must be an array of numbers",
+        ),
         (
             dict(constraints=Constraints(halfspaces=[([0, 0, 1], "a")])),
-            r"halfspaces\[0\]: offset must be a number",
+            r"^constraints.halfspaces\[0\].offset: must be a finite number, got 'a'",
         ),
-        (dict(constraints=Constraints(start=["a", 0, 0])), "constraints.start: expected numbers"),
-        (dict(positions=np.zeros((5, 0))), "positions: need at least 1 coordinate"),
-        (dict(positions=line_demo(n=20) * 1e160), r"positions\[0\]: \|coordinate\| up to .* overflow"),
-        (dict(delta=1e200), "delta: 1e\\+200 is above"),
-        (dict(positions=line_demo(n=20) * 1e-160), "positions: the data spans only .* underflow"),
-        (dict(weights=np.full(20, 1e300)), r"weights\[0\]: 1e\+300 at frame 0, axis 0 is outside"),
-        (dict(weights=np.full(20, 1e-300)), r"weights\[0\]: 1e-300 at frame 0, axis 0 is outside"),
+        (dict(constraints=Constraints(start=["a", 0, 0])), "^constraints.start: must be an array of numbers"),
+        (dict(positions=np.zeros((5, 0))), r"^positions\[0\]: must have at least 1 coordinate per sample"),
+        (
+            dict(positions=line_demo(n=20) * 1e160),
+            r"^positions\[0\]: must hold \|coordinates\| <= 1e\+150 .* overflow",
+        ),
+        (dict(delta=1e200), "^delta: must be a finite number >= 0 and <= 1e\\+150 m, got 1e\\+200"),
+        (dict(positions=line_demo(n=20) * 1e-160), "^positions: must span at least 1e-100 .* underflow"),
+        (
+            dict(weights=np.full(20, 1e300)),
+            r"^weights\[0\]: must lie in \[1e-100, 1e\+100\] \(the first bad one is at frame 0, axis 0; .*got 1e\+300",
+        ),
+        (
+            dict(weights=np.full(20, 1e-300)),
+            r"^weights\[0\]: must lie in \[1e-100, 1e\+100\] \(the first bad one is at frame 0, axis 0; .*got 1e-300",
+        ),
         (
             dict(forces=np.full((20, 3), 1e200), rho_max=None),
-            r"forces\[0\]: 1e\+200 at frame 0, axis 0 is above",
+            r"^forces\[0\]: must hold \|values\| <= 1e\+150 \(the first bad one is at frame 0, axis 0; .*got 1e\+200",
         ),
         (
             dict(forces=np.full((20, 3), 1e140), rho_max=None, weights=np.full(20, 1e-100)),
-            "positions/forces/weights: M-step 1 overflowed float64",
+            "^positions/forces/weights: must .*M-step 1 overflowed float64",
         ),
         # list(x) of one (20, 3) demo fitted 20 one-dimensional demos of 3 samples, silently
         (
             dict(positions=list(line_demo(n=20))),
-            r"^positions: a list of 20 one-dimensional arrays of 3 samples",
+            r"^positions: must be a \(T, d\) array or a list .*got a list of 20 one-dimensional arrays of 3 samples",
         ),
         (
             dict(positions=[line_demo(n=20).tolist(), line_demo(n=12).tolist()]),
-            r"^positions\[0\]: not a rectangular numeric array \(several demos of different lengths",
+            r"^positions\[0\]: must be a rectangular array of numbers \(several demos of different lengths",
         ),
-        (dict(positions=np.stack([line_demo(n=20)] * 2)), r"got \(2, 20, 3\); several demos go in a list"),
+        (
+            dict(positions=np.stack([line_demo(n=20)] * 2)),
+            r"^positions\[0\]: must have shape \(T, d\) or \(T,\); several demos go in a list .*got shape \(2, 20, 3\)",
+        ),
         (
             dict(positions=line_demo(n=20) * (1 + 1j)),
-            r"^positions\[0\]: expected real numbers, got dtype complex",
+            r"^positions\[0\]: must be an array of numbers .*\(complex128\)",
         ),
         (
             dict(constraints=Constraints(max_step="a")),
-            "^constraints.max_step: expected a number > 0, got 'a'",
+            "^constraints.max_step: must be a finite number > 0 or None, got 'a'",
         ),
         (
             dict(orientations=np.tile([1e200, 0.0, 0.0, 0.0], (20, 1))),
-            r"^orientations\[0\]: quaternion norm overflows float64 at frame 0",
+            r"^orientations\[0\]: must hold quaternions .* of finite norm .*at frame 0\), got inf",
         ),
     ],
 )
@@ -561,16 +565,52 @@ def test_array_objects_and_datetimes_are_read_as_documented():
     assert fit.duration == pytest.approx(ref.duration) and ref.duration == pytest.approx(
         0.34
     )  # mean of 0.39 s and 0.29 s
-    with pytest.raises(ValueError, match=r"^forces\[0\]: got datetime64\[ns\] values; expected numbers"):
+    with pytest.raises(
+        ValueError, match=r"^forces\[0\]: must be an array of numbers, got datetime64\[ns\] values"
+    ):
         fit_force_elastic_map(x, pd.Series(pd.date_range("2026-11-24", periods=40, freq="10ms")))
+
+
+def test_times_whose_span_leaves_float64_are_refused():
+    """Finite times 2e308 apart normalised to NaN node times."""
+    x = line_demo(n=3)
+    with pytest.raises(ValueError, match=r"^times\[0\]: must span a duration within float64's range"):
+        fit_force_elastic_map(x, n_nodes=3, times=[-1e308, 0.0, 1e308])
+    # every demo's span is finite, their mean is not
+    with pytest.raises(ValueError, match=r"^times: must have a mean demo duration within float64's range"):
+        fit_force_elastic_map([x, x], n_nodes=3, times=[np.array([0.0, 1e308, 1.5e308])] * 2)
+    fit = fit_force_elastic_map(x, n_nodes=3, times=[-1e307, 0.0, 1e307])  # large but inside: fine
+    assert np.all(np.isfinite(fit.node_times)) and fit.duration == pytest.approx(2e307)
+
+
+@pytest.mark.parametrize("n_nodes", [MAX_NODES + 1, 10**12])
+def test_n_nodes_is_bounded(n_nodes):
+    """10**12 nodes ran into a MemoryError in the E-step (it holds the N×N node distances)."""
+    with pytest.raises(
+        ValueError, match=rf"^n_nodes: must be an integer >= 3 and <= {MAX_NODES}, got {n_nodes}$"
+    ):
+        fit_force_elastic_map(line_demo(n=20), n_nodes=n_nodes)
+    with pytest.raises(ValueError, match=rf"^n: must be an integer >= 1 and <= {MAX_NODES}, got {n_nodes}$"):
+        arc_length_resample(line_demo(n=20), n_nodes)
+
+
+def test_arc_length_resample_refuses_what_gave_nan_or_a_bare_error():
+    with pytest.raises(
+        ValueError, match=r"^path: must have shape \(T, d\) with d >= 1 and \|coordinates\| <= 1e\+150"
+    ):
+        arc_length_resample(
+            np.full((4, 2), 1e200) * [[1], [-1], [1], [-1]], 5
+        )  # arc length overflowed to NaN
+    with pytest.raises(ValueError, match=r"^path: must have shape \(T, d\) with d >= 1 .*got shape \(4, 0\)"):
+        arc_length_resample(np.zeros((4, 0)), 5)  # numpy's "need at least one array to stack"
 
 
 def test_query_times_must_be_finite_numbers_or_a_1d_array():
     fit = fit_force_elastic_map(line_demo(n=40), n_nodes=8)
     assert fit.position_at(0.1).shape == (1, 3) and fit.position_at([0.0, 0.1]).shape == (2, 3)
-    with pytest.raises(
-        ValueError, match=r"^position_at: t must be a number or a 1-D array of seconds, got shape \(2, 2\)"
-    ):
+    with pytest.raises(ValueError, match=r"^t: must have 0 or 1 dimension\(s\), got shape \(2, 2\)"):
         fit.position_at(np.zeros((2, 2)))
-    with pytest.raises(ValueError, match=r"^position_at: t\[1\] is not finite"):
+    with pytest.raises(
+        ValueError, match=r"^t: must hold finite values only \(the first bad one is at index 1\)"
+    ):
         fit.position_at([0.0, np.nan])

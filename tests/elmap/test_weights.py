@@ -1,4 +1,4 @@
-"""Force points and the well-posedness law of SPEC §1."""
+"""Force points and the well-posedness law (a node at x̄ + r/(1−r)(x̄ − p̄), r capped at rho_max)."""
 
 import numpy as np
 import pytest
@@ -105,7 +105,7 @@ def test_cap_engages_at_rho_max_and_is_reported():
 
 
 def test_default_stiffness_keeps_a_100_newton_contact_below_the_cap():
-    """SPEC §1: "Choose the default k so that r stays under rho_max for forces up to 100 N at the default δ"."""
+    """The default k keeps r under rho_max for forces up to 100 N at the default δ."""
     import inspect
 
     from lerobot_forcemap.elmap.fit import DEFAULT_DELTA, DEFAULT_STIFFNESS

@@ -136,7 +136,7 @@ def test_no_changepoint_repeats_the_ends(changepoints: str) -> None:
 
 
 def test_flat_pmf_reproduces_the_papers_segment_counts() -> None:
-    """SPEC §2: with window 64, 20 samples and n_pass 3 a flat pmf over 1000 frames already yields
+    """With window 64, 20 samples and n_pass 3 a flat pmf over 1000 frames already yields
     4.07 ± 0.91 segments (the paper's Table I level) when no minimum segment length is applied."""
     pmf = np.full(1000, 1e-3)
     rng = np.random.default_rng(0)
@@ -151,7 +151,7 @@ def test_flat_pmf_reproduces_the_papers_segment_counts() -> None:
 
 @pytest.mark.parametrize(("gap", "expected"), [(63, [163]), (64, [100, 164])])
 def test_peaks_closer_than_window_are_one_changepoint(gap: int, expected: list[int]) -> None:
-    """SPEC §2 peaks mode: local maxima "at least `window` apart" (the taller of two closer ones stays)."""
+    """Peaks mode: local maxima at least `window` apart (the taller of two closer ones stays)."""
     pmf = np.full(400, 1e-3)
     pmf[100], pmf[100 + gap] = 0.01, 0.02
     assert peak_changepoints(pmf, 1e-3, 2.0, 64).tolist() == expected
@@ -173,7 +173,7 @@ def test_a_flat_topped_peak_is_one_changepoint_at_its_middle_in_library_and_refe
 
 
 def test_peaks_must_reach_peak_ratio_times_the_floor():
-    """SPEC §2 "above the floor", with the documented margin: in linear pooling a keypoint that only one
+    """Peaks must stand above the floor by the documented margin: in linear pooling a keypoint that only one
     of two streams sees stands 1.6x above the floor, below the default peak_ratio of 2."""
     from lerobot_forcemap.segmentation.combine import combine_pmfs, stream_pmf
     from lerobot_forcemap.segmentation.config import SegmentationConfig
@@ -194,16 +194,16 @@ def test_peaks_must_reach_peak_ratio_times_the_floor():
 
 def test_low_level_counts_are_checked_before_they_make_empty_segments() -> None:
     # min_length 0 accepted 0, T and repeats: [0, 0, 5, 5, 10, 10], three empty segments
-    with pytest.raises(ValueError, match="min_length must be an int >= 1, got 0"):
+    with pytest.raises(ValueError, match="^min_length: must be an integer >= 1, got 0"):
         enforce_min_segment_length(np.array([0, 5, 5, 10]), np.ones(4), 10, 0)
-    with pytest.raises(ValueError, match="n_frames must be an int >= 1, got 0"):
+    with pytest.raises(ValueError, match="^n_frames: must be an integer >= 1, got 0"):
         enforce_min_segment_length(np.array([], dtype=np.int64), np.ones(0), 0, 1)
-    with pytest.raises(ValueError, match=r"one value per candidate \(2,\), got \(3,\)"):
+    with pytest.raises(ValueError, match=r"^strength: must have shape \(2,\), got shape \(3,\)"):
         enforce_min_segment_length(np.array([3, 6]), np.ones(3), 10, 1)
     pmf = np.full(100, 0.01)
-    with pytest.raises(ValueError, match="window must be an int >= 1, got 0"):
+    with pytest.raises(ValueError, match="^window: must be an integer >= 1, got 0"):
         peak_changepoints(pmf, 0.01, 2.0, 0)
-    with pytest.raises(ValueError, match="window must be an int >= 1, got 0"):
+    with pytest.raises(ValueError, match="^window: must be an integer >= 1, got 0"):
         sample_changepoints(pmf, np.random.default_rng(0), 20, 3, 0)
     cp, rejected = enforce_min_segment_length(np.array([0, 5, 5, 10]), np.ones(4), 10, 1)
     assert cp.tolist() == [0, 5, 10] and rejected.tolist() == [0, 5, 10]
@@ -215,13 +215,19 @@ def test_the_exported_keypoint_functions_check_what_segment_streams_would_have_c
     t = np.arange(200) * 0.01
     x = np.zeros((200, 1))
     kwargs = dict(threshold=0.2, window=32, min_run=8, grace=2)
-    with pytest.raises(ValueError, match=r"t must be strictly increasing; step 99 is not"):
+    with pytest.raises(ValueError, match=r"^t: must be strictly increasing, got a step <= 0 after frame 99"):
         stream_keypoints(x, np.r_[t[:100], t[100:] - 1.0], **kwargs)  # gave keypoints silently
-    with pytest.raises(ValueError, match=r"x \(n, k\) and t \(n,\) with n >= 35 .* got \(200,\)"):
+    with pytest.raises(ValueError, match=r"^x: must have shape \(n, k\) with n >= 35 .* got shape \(200,\)"):
         stream_keypoints(x[:, 0], t, derivative="difference", **kwargs)
-    with pytest.raises(ValueError, match="x and t must be finite"):
+    with pytest.raises(
+        ValueError, match=r"^x: must hold finite values only \(the first bad one is at frame 0, column 0\)"
+    ):
         stream_keypoints(np.full((200, 1), np.nan), t, **kwargs)
-    with pytest.raises(ValueError, match=r"n >= window=32, got \(10, 1\)"):
+    with pytest.raises(
+        ValueError, match=r"^x: must have shape \(n, k\) with n >= window=32 and k >= 1, got shape \(10, 1\)"
+    ):
         savgol_third_derivative(x[:10], 0.01, 32, 4)
-    with pytest.raises(ValueError, match="non-empty finite"):
+    with pytest.raises(
+        ValueError, match=r"^signal: must hold finite values only \(the first bad one is at index 0\)"
+    ):
         jerk_contrast(np.array([np.nan, 1.0]))

@@ -134,10 +134,12 @@ def test_zero_weight_streams_are_left_out_without_nan() -> None:
 def test_all_zero_weights_is_an_error() -> None:
     t = np.arange(200) * DT
     streams = [Stream("a", np.sin(t), t, weight=0.0), Stream("b", np.cos(t), t, weight=0.0)]
-    with pytest.raises(ValueError, match="all stream weights are zero"):
+    with pytest.raises(
+        ValueError, match=r"^segment_streams\(streams=...\): must give at least one stream a weight > 0"
+    ):
         segment_streams(streams)
     pmfs, floors = three_pmfs()
-    with pytest.raises(ValueError, match="all stream weights are zero"):
+    with pytest.raises(ValueError, match="^weights: must give at least one stream a weight > 0"):
         combine_pmfs(pmfs, floors, np.zeros(3), "linear")
 
 
@@ -183,10 +185,24 @@ def test_a_gaussian_wider_than_the_demo_is_cut_at_its_length() -> None:
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        ((np.array([5]), 0, SIGMA, 1.0), "n_frames must be an int >= 1, got 0"),
-        ((np.array([5]), T, 0.0, 1.0), r"sigma must be >= 0.001 samples, got 0.0"),
-        ((np.array([], dtype=np.int64), T, SIGMA, 0.0), "floor must be > 0, got 0.0"),
-        ((np.array([5, T]), T, SIGMA, 1.0), rf"keypoints must be frames in \[0, {T}\), got 5..{T}"),
+        ((np.array([5]), 0, SIGMA, 1.0), "^n_frames: must be an integer >= 1 and <= 100000000, got 0"),
+        # a fractional or NaN keypoint was truncated to some frame
+        (
+            (np.array([5.5]), T, SIGMA, 1.0),
+            r"^keypoints: must hold whole numbers only \(the first bad one is at index 0\), got 5.5",
+        ),
+        (
+            (np.array([3.0, np.nan]), T, SIGMA, 1.0),
+            r"^keypoints: must hold whole numbers only \(the first bad one is at index 1\), got nan",
+        ),
+        # 10**12 frames ran into a MemoryError
+        (
+            (np.array([5]), 10**12, SIGMA, 1.0),
+            "^n_frames: must be an integer >= 1 and <= 100000000, got 10+$",
+        ),
+        ((np.array([5]), T, 0.0, 1.0), r"^sigma: must be a finite number >= 0.001 samples, got 0.0"),
+        ((np.array([], dtype=np.int64), T, SIGMA, 0.0), "^floor: must be a finite number > 0, got 0.0"),
+        ((np.array([5, T]), T, SIGMA, 1.0), rf"^keypoints: must be frames in \[0, {T}\), got 5..{T}"),
     ],
 )
 def test_stream_pmf_refuses_what_would_give_nan_or_a_division_by_zero(args, message) -> None:
@@ -196,9 +212,12 @@ def test_stream_pmf_refuses_what_would_give_nan_or_a_division_by_zero(args, mess
 
 def test_combine_pmfs_refuses_weights_it_would_drop_or_misalign() -> None:
     pmfs, floors = three_pmfs()
-    with pytest.raises(ValueError, match=r"weights must be finite and >= 0, got \[1.0, -1.0, 1.0\]"):
+    with pytest.raises(ValueError, match=r"^weights: must be >= 0, got \[1.0, -1.0, 1.0\]"):
         combine_pmfs(pmfs, floors, np.array([1.0, -1.0, 1.0]), "linear")
-    with pytest.raises(ValueError, match=r"weights must be finite and >= 0, got \[1.0, nan, 1.0\]"):
+    with pytest.raises(
+        ValueError,
+        match=r"^weights: must hold finite values only \(the first bad one is at stream 1\), got nan",
+    ):
         combine_pmfs(pmfs, floors, np.array([1.0, np.nan, 1.0]), "geometric")
-    with pytest.raises(ValueError, match=r"must agree, got \(3, 1200\), \(3,\) and \(2,\)"):
+    with pytest.raises(ValueError, match=r"^weights: must have shape \(3,\), got shape \(2,\)"):
         combine_pmfs(pmfs, floors, np.ones(2), "product")

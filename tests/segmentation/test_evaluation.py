@@ -117,15 +117,21 @@ def test_hit_rate_is_not_one_to_one() -> None:
 
 
 def test_bad_input_raises() -> None:
-    with pytest.raises(ValueError, match="predicted is not finite at index 1"):
+    with pytest.raises(
+        ValueError,
+        match=r"^predicted: must hold finite values only \(the first bad one is at index 1\), got nan",
+    ):
         score_changepoints([1.0, np.nan], [1.0], 5)
-    with pytest.raises(ValueError, match="reference is not finite at index 0"):
+    with pytest.raises(
+        ValueError,
+        match=r"^reference: must hold finite values only \(the first bad one is at index 0\), got inf",
+    ):
         score_changepoints([1.0], [np.inf], 5)
-    with pytest.raises(ValueError, match="tolerance must be a finite number >= 0, got -1"):
+    with pytest.raises(ValueError, match="^tolerance: must be a finite number >= 0, got -1"):
         score_changepoints([1.0], [1.0], -1)
-    with pytest.raises(ValueError, match=r"method must be one of \('optimal', 'greedy'\), got 'hungarian'"):
+    with pytest.raises(ValueError, match=r"^method: must be one of \['greedy', 'optimal'\], got 'hungarian'"):
         score_changepoints([1.0], [1.0], 5, method="hungarian")  # type: ignore[arg-type]
-    with pytest.raises(ValueError, match=r"predicted must be a 1-D array .* got shape \(2, 2\)"):
+    with pytest.raises(ValueError, match=r"^predicted: must be a 1-D array .* got shape \(2, 2\)"):
         score_changepoints(np.zeros((2, 2)), [1.0], 5)
-    with pytest.raises(ValueError, match=r"need 0 <= matched <= min\(predicted, reference\), got 3, 2, 5"):
+    with pytest.raises(ValueError, match=r"^n_matched: must be an integer >= 0 and <= 2, got 3"):
         prf(3, 2, 5)

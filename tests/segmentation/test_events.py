@@ -118,7 +118,7 @@ def test_merge_events() -> None:
     np.testing.assert_array_equal(merge_events([100, 150, 200], 64), [150])  # chains
     np.testing.assert_array_equal(merge_events([100, 150], 10), [100, 150])
     assert merge_events([], 64).size == 0
-    with pytest.raises(ValueError, match="within must be a finite number >= 0, got -1"):
+    with pytest.raises(ValueError, match="^within: must be a finite number >= 0, got -1"):
         merge_events([1], -1)
 
 
@@ -127,15 +127,21 @@ def test_bad_input_names_the_array_and_frame() -> None:
     g = grasp(100, 30, 70)
     bad = g.copy()
     bad[42] = np.nan
-    with pytest.raises(ValueError, match=r"gripper is not finite at frame 42"):
+    with pytest.raises(
+        ValueError, match=r"^gripper: must hold finite values only \(the first bad one is at frame 42\)"
+    ):
         reference_events(t, bad)
-    with pytest.raises(ValueError, match=r"finger_force must have shape \(100,\)"):
+    with pytest.raises(
+        ValueError, match=r"^finger_force: must have shape \(100,\) to match times, got shape \(99,\)"
+    ):
         reference_events(t, g, np.zeros(99))
     t_bad = t.copy()
     t_bad[10] = t_bad[9]
-    with pytest.raises(ValueError, match="strictly increasing; frame 10"):
+    with pytest.raises(ValueError, match=r"^times: must be strictly increasing, got .* at frame 10$"):
         reference_events(t_bad, g)
-    with pytest.raises(ValueError, match="onset_fraction"):
+    with pytest.raises(
+        ValueError, match=r"^EventThresholds.onset_fraction: must be a finite number > 0 and < 0.5, got 0.6"
+    ):
         EventThresholds(onset_fraction=0.6)
 
 

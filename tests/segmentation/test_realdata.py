@@ -55,7 +55,7 @@ def test_three_button_demo_agrees_with_loop_reference(shared_data: Path) -> None
 
 
 def test_raw_differences_drown_position_streams_in_noise(shared_data: Path) -> None:
-    """SPEC §2: with forward differences the 166 Hz joint and Cartesian jerk sits above every threshold
+    """With forward differences the 166 Hz joint and Cartesian jerk sits above every threshold
     from the first sample, so those streams give no keypoint; the Savitzky–Golay default finds them."""
     with h5py.File(shared_data / "ur5e" / "three_button_press.h5") as f:
         streams = recorder_streams(f)

@@ -1,4 +1,4 @@
-"""M-step solvers for the convex elastic-map energy (SPEC §1 "Energy").
+"""M-step solvers for the convex elastic-map energy.
 
 Per axis q the energy decouples into
 
@@ -8,10 +8,15 @@ whose normal equations ``(diag(W_q)²/S + λEᵀE + μRᵀR) y_q = diag(W_q) b_q
 SPD. The d systems are stacked into one block-diagonal matrix of size N·d — still bandwidth 2 because
 the blocks do not touch — and solved with a single banded Cholesky call (LAPACK ``pbsv``): O(N·d).
 Fixed nodes (equality constraints) are eliminated, which keeps the band. Inequality constraints go to
-Clarabel with the same objective (sparse P and A).
+Clarabel with the same objective (sparse P and A), refined by an active-set polish to the exact
+minimiser when every constraint is linear.
 
 Layout: nodes ``y (N, d)``; cluster sums ``W, b (N, d)``; the stacked vector is axis-major,
-``γ = [y[:, 0]; y[:, 1]; ...]`` (the paper's stacking), entry (i, q) at ``q·N + i``.
+``γ = [y[:, 0]; y[:, 1]; ...]``, entry (i, q) at ``q·N + i``.
+
+Entry points: :func:`solve_m_step_banded` and :func:`solve_m_step_clarabel` check their inputs;
+:class:`BandedMStep` and :func:`clarabel_m_step` are what the EM loop calls every iteration, on inputs
+it built itself, and check nothing.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.linalg import lapack
 
+from .._validation import check_array, check_int_array, check_int_list, check_real, fail
 from .constraints import ResolvedConstraints
 
 __all__ = [
@@ -34,6 +40,7 @@ __all__ = [
     "BandedMStep",
     "solve_m_step_banded",
     "solve_m_step_clarabel",
+    "clarabel_m_step",
     "polish_active_set",
 ]
 
@@ -216,6 +223,18 @@ class BandedMStep:
         return y
 
 
+def _check_sums(
+    W: object, b: object, S: object, lam: object, mu: object
+) -> tuple[Array, Array, float, float, float]:
+    """The inputs every M-step takes: cluster sums W, b (N, d) finite, S > 0, λ, μ >= 0."""
+    W = check_array("W", W, ndim=2, min_len=1, axes=("node", "axis"))
+    b = check_array("b", b, shape=W.shape, axes=("node", "axis"))
+    if W.shape[1] < 1:
+        fail("W", f"have at least one axis, got shape {W.shape}")
+    S = check_real("S", S, low=0.0, low_open=True)
+    return W, b, S, check_real("lam", lam, low=0.0), check_real("mu", mu, low=0.0)
+
+
 def solve_m_step_banded(
     W: Array,
     b: Array,
@@ -226,9 +245,29 @@ def solve_m_step_banded(
     fixed_value: Array | None = None,
     previous: Array | None = None,
 ) -> Array:
-    """One banded M-step (see :class:`BandedMStep`): W, b (N, d) cluster sums -> nodes y (N, d)."""
+    """One banded M-step (see :class:`BandedMStep`): W, b (N, d) cluster sums -> nodes y (N, d).
+
+    S > 0 the normaliser; lam, mu >= 0; fixed_index (K,) distinct node indices held at fixed_value
+    (K, d); previous (N, d) nodes that undetermined rows keep (default zeros).
+    """
+    W, b, S, lam, mu = _check_sums(W, b, S, lam, mu)
     n, d = W.shape
+    if fixed_index is not None and len(fixed_index):
+        fixed_index = np.asarray(
+            check_int_list("fixed_index", fixed_index, low=0, distinct=True), dtype=np.intp
+        )
+        if fixed_index.max() >= n:
+            fail("fixed_index", f"hold node indices below N = {n}", fixed_index.tolist())
+        fixed_value = check_array(
+            "fixed_value", fixed_value, shape=(len(fixed_index), d), axes=("row", "axis")
+        )
+    if previous is not None:
+        previous = check_array("previous", previous, shape=(n, d), axes=("node", "axis"))
     return BandedMStep(n, d, lam, mu, fixed_index, fixed_value).solve(W, b, S, previous)
+
+
+# ----------------------------------------------------------------------------------------------
+# Clarabel
 
 
 def _clarabel_settings(tol: float) -> clarabel.DefaultSettings:
@@ -255,13 +294,87 @@ def solve_m_step_clarabel(
 ) -> Array:
     """Same objective as :func:`solve_m_step_banded`, with every constraint as a conic row (Clarabel).
 
-    ``polish``: refine Clarabel's answer to the exact minimiser with :func:`polish_active_set` when the
-    constraints are linear (no ``max_step`` cone); off only to measure what it changes.
+    W, b (N, d) cluster sums; S > 0; lam, mu >= 0; constraints resolved for (N, d) by
+    :func:`~.constraints.resolve_constraints`; extra: half-spaces on single nodes (the force limits);
+    tol > 0 Clarabel's gap and feasibility tolerance (on the normalised problem). ``polish``: refine
+    Clarabel's answer to the exact minimiser with :func:`polish_active_set` when the constraints are
+    linear (no ``max_step`` cone); off only to measure what it changes. Returns nodes (N, d).
 
-    Raises ``ValueError`` naming ``constraints`` when the set is infeasible.
+    Raises ``ValueError`` naming ``constraints`` (or ``force_limit`` for the extra rows) when the set is
+    infeasible or Clarabel stops without a solution.
     """
+    W, b, S, lam, mu = _check_sums(W, b, S, lam, mu)
+    if not isinstance(constraints, ResolvedConstraints) or (constraints.n_nodes, constraints.dim) != W.shape:
+        fail(
+            "constraints",
+            f"be ResolvedConstraints for {W.shape} nodes (see resolve_constraints)",
+            constraints,
+        )
+    if extra is not None:
+        _check_extra(extra, *W.shape)
+    tol = check_real("tol", tol, low=0.0, low_open=True)
+    return clarabel_m_step(W, b, S, lam, mu, constraints, extra, tol, bool(polish))
+
+
+def _check_extra(extra: object, n: int, d: int) -> None:
+    """``extra`` as InequalityRows on the nodes of an (n, d) map."""
+    if not isinstance(extra, InequalityRows):
+        fail("extra", f"be InequalityRows or None, got {type(extra).__name__}")
+    k = len(extra)
+    nodes = check_int_array("extra.node", extra.node, low=0)
+    if nodes.shape != (k,) or (k and nodes.max() >= n):
+        fail("extra.node", f"hold {k} node indices below N = {n}", nodes.tolist())
+    check_array("extra.normals", extra.normals, shape=(k, d), axes=("row", "axis"))
+    check_array("extra.lower", extra.lower, shape=(k,), axes=("row",))
+
+
+def clarabel_m_step(
+    W: Array,
+    b: Array,
+    S: float,
+    lam: float,
+    mu: float,
+    constraints: ResolvedConstraints,
+    extra: InequalityRows | None = None,
+    tol: float = 1e-10,
+    polish: bool = True,
+) -> Array:
+    """:func:`solve_m_step_clarabel` on inputs the EM loop built (nothing is checked)."""
     n, d = W.shape
-    nv = n * d
+    P, q = _objective(W, b, S, lam, mu)
+    A, bvec, cones, n_eq, n_ineq = _conic_rows(constraints, extra, n, d)
+    # Solve for z with γ = c + L·z (c the clusters' centre, L their extent) and the objective scaled to
+    # unit curvature: Clarabel's tolerances are absolute, so in raw coordinates the answer would depend
+    # on the units. The cones are invariant to positive scaling, so A z + s' = (b − A c)/L describes
+    # the same set.
+    centre, extent = _normalisation(W, b, constraints)
+    c_vec = np.repeat(centre, n)  # stacked axis-major, like γ
+    P_full = P + sp.triu(P, 1, format="csc").T
+    curvature = max(float(np.max(np.abs(P.diagonal()))) if n * d else 1.0, 1e-300)
+    q_z = (P_full @ c_vec + q) / (extent * curvature)
+    b_z = (bvec - A @ c_vec) / extent
+    sol = clarabel.DefaultSolver((P / curvature).tocsc(), q_z, A, b_z, cones, _clarabel_settings(tol)).solve()
+    _raise_unless_solved(sol.status, constraints, extra)
+    z = np.asarray(sol.x)
+    if polish and n_ineq and constraints.max_step is None:
+        rows = slice(n_eq, n_eq + n_ineq)
+        polished = polish_active_set(
+            P_full / curvature,
+            q_z,
+            A[:n_eq],
+            b_z[:n_eq],
+            A[rows],
+            b_z[rows],
+            np.asarray(sol.z)[rows] > np.asarray(sol.s)[rows],
+        )
+        if polished is not None:
+            z = polished
+    return (c_vec + extent * z).reshape(d, n).T.copy()
+
+
+def _objective(W: Array, b: Array, S: float, lam: float, mu: float) -> tuple[sp.csc_matrix, Array]:
+    """Clarabel's ``½ γᵀPγ + qᵀγ`` of the energy: P = 2·A (upper triangle, (N·d)²), q = −2·W b / S."""
+    n, d = W.shape
     s0, s1, s2 = smoothness_bands(n, lam, mu)
     diag = (W * W / S + s0[:, None]).T.reshape(-1)
     off1 = np.zeros((d, n))
@@ -269,118 +382,116 @@ def solve_m_step_clarabel(
     off2 = np.zeros((d, n))
     if n >= 3:
         off2[:, :-2] = s2
-    # Clarabel minimises ½ γᵀPγ + qᵀγ: P = 2·A (upper triangle), q = −2·W b / S.
     P = sp.diags(
         [2 * diag, 2 * off1.reshape(-1)[:-1], 2 * off2.reshape(-1)[:-2]],
         [0, 1, 2],
-        shape=(nv, nv),
+        shape=(n * d, n * d),
         format="csc",
     )
-    q = -2.0 * (W * b / S).T.reshape(-1)
+    return P, -2.0 * (W * b / S).T.reshape(-1)
 
-    rows: list[sp.spmatrix] = []
-    rhs: list[Array] = []
+
+def _conic_rows(
+    rc: ResolvedConstraints, extra: InequalityRows | None, n: int, d: int
+) -> tuple[sp.csc_matrix, Array, list, int, int]:
+    """Every constraint as ``A γ + s = b``, s in the cones: equalities (zero cone), then the linear
+    inequalities (non-negative cone), then the step bounds (one second-order cone per edge).
+    Returns A, b, the cones, the number of equality rows and the number of inequality rows."""
+    nv = n * d
+    blocks = [_equality_rows(rc, n, d), _inequality_rows(rc, extra, n, d), _step_rows(rc, n, d)]
+    rows = [m for block in blocks if block is not None for m in block[0]]
+    rhs = [v for block in blocks if block is not None for v in block[1]]
+    n_eq = sum(m.shape[0] for m in blocks[0][0]) if blocks[0] is not None else 0
+    n_ineq = sum(m.shape[0] for m in blocks[1][0]) if blocks[1] is not None else 0
     cones: list = []
+    if n_eq:
+        cones.append(clarabel.ZeroConeT(n_eq))
+    if n_ineq:
+        cones.append(clarabel.NonnegativeConeT(n_ineq))
+    if blocks[2] is not None:
+        cones.extend(clarabel.SecondOrderConeT(d + 1) for _ in range(n - 1))
+    if not rows:
+        return sp.csc_matrix((0, nv)), np.zeros(0), cones, 0, 0
+    return sp.vstack(rows, format="csc"), np.concatenate(rhs), cones, n_eq, n_ineq
+
+
+def _equality_rows(rc: ResolvedConstraints, n: int, d: int) -> tuple[list, list] | None:
+    """Fixed nodes: one row per fixed coordinate."""
+    if not len(rc.fixed_index):
+        return None
+    cols = (np.arange(d)[None, :] * n + rc.fixed_index[:, None]).reshape(-1)
+    A = sp.csc_matrix((np.ones(len(cols)), (np.arange(len(cols)), cols)), shape=(len(cols), n * d))
+    return [A], [rc.fixed_value.reshape(-1)]
+
+
+def _inequality_rows(
+    rc: ResolvedConstraints, extra: InequalityRows | None, n: int, d: int
+) -> tuple[list, list] | None:
+    """Box bounds (upper then lower, axis by axis), half-spaces (every node), extra rows (one node each)."""
+    nv = n * d
     node = np.arange(n)
-
-    # equalities
-    k_eq = len(constraints.fixed_index)
-    if k_eq:
-        cols = (np.arange(d)[None, :] * n + constraints.fixed_index[:, None]).reshape(-1)
-        rows.append(sp.csc_matrix((np.ones(len(cols)), (np.arange(len(cols)), cols)), shape=(len(cols), nv)))
-        rhs.append(constraints.fixed_value.reshape(-1))
-        cones.append(clarabel.ZeroConeT(len(cols)))
-
-    # linear inequalities A γ + s = b, s >= 0
-    n_ineq = 0
-    if constraints.box_lo is not None:
-        for sign, bound in ((1.0, constraints.box_hi), (-1.0, constraints.box_lo)):
+    rows: list = []
+    rhs: list = []
+    if rc.box_lo is not None:
+        for sign, bound in ((1.0, rc.box_hi), (-1.0, rc.box_lo)):
             for qa in range(d):
                 if np.isfinite(bound[qa]):
                     rows.append(sp.csc_matrix((np.full(n, sign), (node, qa * n + node)), shape=(n, nv)))
                     rhs.append(np.full(n, sign * bound[qa]))
-                    n_ineq += n
-    for normal, offset in zip(constraints.halfspace_normals, constraints.halfspace_offsets, strict=True):
+    for normal, offset in zip(rc.halfspace_normals, rc.halfspace_offsets, strict=True):
         r = np.repeat(node, d)
         c = (np.arange(d)[None, :] * n + node[:, None]).reshape(-1)
         rows.append(sp.csc_matrix((np.tile(normal, n), (r, c)), shape=(n, nv)))
         rhs.append(np.full(n, offset))
-        n_ineq += n
     if extra is not None and len(extra):
         k = len(extra)
         r = np.repeat(np.arange(k), d)
         c = (np.arange(d)[None, :] * n + extra.node[:, None]).reshape(-1)
         rows.append(sp.csc_matrix((-extra.normals.reshape(-1), (r, c)), shape=(k, nv)))
         rhs.append(-extra.lower)
-        n_ineq += k
-    if n_ineq:
-        cones.append(clarabel.NonnegativeConeT(n_ineq))
+    return (rows, rhs) if rows else None
 
-    # step-length bound: (max_step, y_{i+1} − y_i) in the second-order cone, per edge
-    if constraints.max_step is not None and n >= 2:
-        ne = n - 1
-        edge = np.arange(ne)
-        r_base = edge * (d + 1)
-        r = np.concatenate([(r_base[:, None] + 1 + np.arange(d)[None, :]).reshape(-1)] * 2)
-        c_lo = (np.arange(d)[None, :] * n + edge[:, None]).reshape(-1)
-        c = np.concatenate([c_lo, c_lo + 1])
-        vals = np.concatenate([np.ones(len(c_lo)), -np.ones(len(c_lo))])
-        rows.append(sp.csc_matrix((vals, (r, c)), shape=(ne * (d + 1), nv)))
-        b_soc = np.zeros(ne * (d + 1))
-        b_soc[r_base] = constraints.max_step
-        rhs.append(b_soc)
-        cones.extend(clarabel.SecondOrderConeT(d + 1) for _ in range(ne))
 
-    if rows:
-        A = sp.vstack(rows, format="csc")
-        bvec = np.concatenate(rhs)
-    else:
-        A = sp.csc_matrix((0, nv))
-        bvec = np.zeros(0)
-    # Solve for z with γ = c + L·z (c the clusters' centre, L their extent) and the objective scaled to
-    # unit curvature: Clarabel's tolerances are absolute, so in raw coordinates the answer depended on
-    # the units (micrometre-scale data came out visibly wrong, millimetres stalled the solver). The
-    # cones are invariant to positive scaling, so A z + s' = (b − A c)/L describes the same set.
-    centre, extent = _normalisation(W, b, constraints)
-    c_vec = np.repeat(centre, n)  # stacked axis-major, like γ
-    P_full = P + sp.triu(P, 1, format="csc").T
-    curvature = max(float(np.max(np.abs(P.diagonal()))) if nv else 1.0, 1e-300)
-    P_z = (P / curvature).tocsc()
-    q_z = (P_full @ c_vec + q) / (extent * curvature)
-    b_z = (bvec - A @ c_vec) / extent
-    solver = clarabel.DefaultSolver(P_z, q_z, A, b_z, cones, _clarabel_settings(tol))
-    sol = solver.solve()
-    status = sol.status
+def _step_rows(rc: ResolvedConstraints, n: int, d: int) -> tuple[list, list] | None:
+    """Step-length bound: (max_step, y_{i+1} − y_i) in the second-order cone, per edge."""
+    if rc.max_step is None or n < 2:
+        return None
+    ne = n - 1
+    edge = np.arange(ne)
+    r_base = edge * (d + 1)
+    r = np.concatenate([(r_base[:, None] + 1 + np.arange(d)[None, :]).reshape(-1)] * 2)
+    c_lo = (np.arange(d)[None, :] * n + edge[:, None]).reshape(-1)
+    c = np.concatenate([c_lo, c_lo + 1])
+    vals = np.concatenate([np.ones(len(c_lo)), -np.ones(len(c_lo))])
+    b_soc = np.zeros(ne * (d + 1))
+    b_soc[r_base] = rc.max_step
+    return [sp.csc_matrix((vals, (r, c)), shape=(ne * (d + 1), n * d))], [b_soc]
+
+
+#: what to change when Clarabel finds no solution, by the argument the failure is charged to
+_REMEDIES = {
+    "constraints": "loosen or remove nearly contradictory or nearly parallel inequalities, or express "
+    "positions in units closer to 1",
+    "force_limit": "raise force_limit or stiffness, or express positions in units closer to 1",
+    "constraints and force_limit": "loosen the constraints, raise force_limit or stiffness, or express "
+    "positions in units closer to 1",
+    "solver": "use solver='auto' or 'banded' (no constraint needs Clarabel here), or express positions "
+    "in units closer to 1",
+}
+
+
+def _raise_unless_solved(status: object, rc: ResolvedConstraints, extra: InequalityRows | None) -> None:
+    """``ValueError`` naming the argument the failure is charged to, unless Clarabel solved the problem."""
+    if status in (clarabel.SolverStatus.Solved, clarabel.SolverStatus.AlmostSolved):
+        return
+    limits = extra is not None and len(extra) > 0
+    user = not rc.is_empty
+    what = "constraints and force_limit" if user and limits else "force_limit" if limits else "constraints"
     if status in (clarabel.SolverStatus.PrimalInfeasible, clarabel.SolverStatus.AlmostPrimalInfeasible):
-        user = bool(
-            k_eq
-            or constraints.box_lo is not None
-            or len(constraints.halfspace_normals)
-            or constraints.max_step is not None
-        )
-        limits = extra is not None and len(extra) > 0
-        what = (
-            "constraints and force_limit" if user and limits else ("force_limit" if limits else "constraints")
-        )
-        raise ValueError(f"{what}: the constraint set is infeasible (Clarabel status {status})")
-    if status not in (clarabel.SolverStatus.Solved, clarabel.SolverStatus.AlmostSolved):
-        raise RuntimeError(f"Clarabel M-step failed with status {status}")
-    z = np.asarray(sol.x)
-    if polish and n_ineq and constraints.max_step is None:
-        n_eq = k_eq * d
-        ineq = slice(n_eq, n_eq + n_ineq)
-        polished = polish_active_set(
-            P_full / curvature,
-            q_z,
-            A[:n_eq],
-            b_z[:n_eq],
-            A[ineq],
-            b_z[ineq],
-            np.asarray(sol.z)[ineq] > np.asarray(sol.s)[ineq],
-        )
-        if polished is not None:
-            z = polished
-    return (c_vec + extent * z).reshape(d, n).T.copy()
+        fail(what, f"describe a feasible set of node positions, got Clarabel status {status} (infeasible)")
+    if not (user or limits):
+        what = "solver"
+    fail(what, f"give the Clarabel M-step a problem it can solve ({_REMEDIES[what]}), got status {status}")
 
 
 def polish_active_set(
@@ -405,35 +516,15 @@ def polish_active_set(
     returned only when it satisfies every KKT condition to ``tol`` (feasible, multipliers >= 0,
     stationary), which for a convex QP makes it the optimum.
     """
-    from scipy.sparse.linalg import splu
-
     nv, k = P.shape[0], E.shape[0]
-    # KKT [[P, Cᵀ], [C, 0]] with C = [E; G_active], assembled from triplets: scipy.sparse's stacking costs
-    # more than the factorisation at these sizes
-    Pc, Ec, Gc = P.tocoo(), E.tocoo(), G.tocoo()
-    G = Gc.tocsr()
+    parts = (P.tocoo(), E.tocoo(), G.tocoo())
+    G = parts[2].tocsr()
     active = np.asarray(active, dtype=bool).copy()
     for _ in range(max_rounds):
-        row_of = np.cumsum(active) - 1 + nv + k  # KKT row of each active G row
-        g = active[Gc.row]
-        c_rows = np.concatenate([Ec.row + nv, row_of[Gc.row[g]]])
-        c_cols = np.concatenate([Ec.col, Gc.col[g]])
-        c_vals = np.concatenate([Ec.data, Gc.data[g]])
-        size = nv + k + int(active.sum())
-        K = sp.csc_matrix(
-            (
-                np.concatenate([Pc.data, c_vals, c_vals]),
-                (np.concatenate([Pc.row, c_rows, c_cols]), np.concatenate([Pc.col, c_cols, c_rows])),
-            ),
-            shape=(size, size),
-        )
+        K = _kkt_matrix(*parts, active, nv, k)
         rhs = np.concatenate([-q, e, h[active]])
-        try:
-            sol = splu(K).solve(rhs)
-        except RuntimeError:  # singular: dependent active rows (e.g. a box bound and a half-space alike)
-            return None
-        # stationarity and the active rows as equalities, then feasibility and the multipliers' signs
-        if not (np.all(np.isfinite(sol)) and np.max(np.abs(K @ sol - rhs)) <= tol):
+        sol = _solve_kkt(K, rhs, tol)
+        if sol is None:
             return None
         x = sol[:nv]
         violated = (G @ x - h > tol) & ~active
@@ -444,6 +535,40 @@ def polish_active_set(
             return x
         active = (active | violated) & ~negative
     return None
+
+
+def _kkt_matrix(
+    Pc: sp.coo_matrix, Ec: sp.coo_matrix, Gc: sp.coo_matrix, active: NDArray[np.bool_], nv: int, k: int
+) -> sp.csc_matrix:
+    """KKT ``[[P, Cᵀ], [C, 0]]`` with C = [E; G_active], assembled from triplets: scipy.sparse's
+    stacking costs more than the factorisation at these sizes."""
+    row_of = np.cumsum(active) - 1 + nv + k  # KKT row of each active G row
+    g = active[Gc.row]
+    c_rows = np.concatenate([Ec.row + nv, row_of[Gc.row[g]]])
+    c_cols = np.concatenate([Ec.col, Gc.col[g]])
+    c_vals = np.concatenate([Ec.data, Gc.data[g]])
+    size = nv + k + int(active.sum())
+    return sp.csc_matrix(
+        (
+            np.concatenate([Pc.data, c_vals, c_vals]),
+            (np.concatenate([Pc.row, c_rows, c_cols]), np.concatenate([Pc.col, c_cols, c_rows])),
+        ),
+        shape=(size, size),
+    )
+
+
+def _solve_kkt(K: sp.csc_matrix, rhs: Array, tol: float) -> Array | None:
+    """The KKT solution, or None when K is singular (dependent active rows, e.g. a box bound and a
+    half-space alike) or the solution misses stationarity or an active row by more than ``tol``."""
+    from scipy.sparse.linalg import splu
+
+    try:
+        sol = splu(K).solve(rhs)
+    except RuntimeError:
+        return None
+    if not (np.all(np.isfinite(sol)) and np.max(np.abs(K @ sol - rhs)) <= tol):
+        return None
+    return sol
 
 
 def _normalisation(W: Array, b: Array, constraints: ResolvedConstraints) -> tuple[Array, float]:
