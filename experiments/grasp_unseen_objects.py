@@ -64,7 +64,7 @@ def replay(env, demo: dict[str, np.ndarray], phases: list[str], seed: int) -> di
     first_grasp = int(np.argmax(np.isin(phase, GRASP_PHASES)))
     shift = np.zeros(3)
     shift[:2] = obs[layout.ENV_STATE][:2] - state[0, :2]
-    limit = env.unwrapped.task_impl.max_episode_steps
+    limit = env.unwrapped.task_impl.spec.max_episode_steps
     for k in range(limit):  # after the last frame: hold it (a policy's reproduction ends the same way)
         i = min(k, len(actions) - 1)
         if k == first_grasp:

@@ -44,7 +44,6 @@ from lerobot_forcemap.evaluation.evaluate import FORCE_KEYS, episode_outcome, to
 __all__ = [
     "EVAL_SEEDS",
     "TUNE_SEEDS",
-    "ANCHOR_OBJECT",
     "FORCE_KEYS",
     "FINGER_KEYS",
     "Job",
@@ -70,14 +69,6 @@ __all__ = [
 EVAL_SEEDS: tuple[int, ...] = tuple(range(1000, 1020))
 #: seeds used only for choosing settings (never reported as results)
 TUNE_SEEDS: tuple[int, ...] = (2000, 2001)
-#: the object a demonstration is re-anchored to for the hybrid / replay baselines
-ANCHOR_OBJECT = {
-    "press": "button",
-    "erase": "board",
-    "peg_in_hole": "peg",
-    "grasp_push": "obj",
-    "grasp_flip": "obj",
-}
 FINGER_KEYS = ("max_finger_force", "mean_finger_force")
 REPO_ROOT = Path(__file__).resolve().parents[2]
 #: version of the episode records and of the episode loop (part of the cache fingerprint)
@@ -394,8 +385,9 @@ def _lerobot_actor(policy, pre, post, task_description: str):
 def _baseline_actor(job: Job, demo: DemoEpisode):
     """(reset, act) of the hybrid or replay baseline following the re-anchored demonstration."""
     from lerobot_forcemap.envs.hybrid_control import HybridConfig, HybridForcePositionPolicy
+    from lerobot_forcemap.envs.registration import task_spec
 
-    anchor = ANCHOR_OBJECT[job.task]
+    anchor = task_spec(job.task).anchor  # the object the demonstration is re-anchored to
     state: dict[str, Any] = {}
 
     def reset(obs: dict) -> None:

@@ -1,6 +1,6 @@
 """``ForceTaskEnv``: the gymnasium env shared by every robot and task.
 
-One control step (``1 / task.control_hz`` s, default 20 Hz):
+One control step (``1 / TaskSpec.control_hz`` s, 20 Hz for every task):
 
 1. the action ``[x y z qw qx qy qz gripper]`` (base frame, ``lerobot_forcemap.layout``) is checked
    (shape, finite), its quaternion normalised, and the target clipped to the task's workspace box and
@@ -83,6 +83,7 @@ class ForceTaskEnv(gym.Env):
         force_cutoff_hz: float = 10.0,
         randomize: bool = True,
         settle_seconds: float = 0.3,
+        object: str | None = None,  # noqa: A002 - the public kwarg name
     ):
         if obs_type not in OBS_TYPES:
             raise ValueError(f"obs_type must be one of {OBS_TYPES}, got {obs_type!r}")
@@ -112,8 +113,11 @@ class ForceTaskEnv(gym.Env):
         self.render_mode = render_mode
         self.image_size = int(image_size)
         self.render_size = int(render_size)
-        self.robot: RobotSpec = get_robot(robot or self.task_class.robot_name)
-        self.task_impl: ForceTask = self.task_class(self.robot, randomize=randomize, **self.task_options())
+        spec = self.task_class.spec
+        self.object_name = spec.check_object(object) or spec.default_object
+        self.robot: RobotSpec = get_robot(robot or spec.robot)
+        options = {"object_name": self.object_name} if spec.objects else {}
+        self.task_impl: ForceTask = self.task_class(self.robot, randomize=randomize, **options)
         self.scene_config = SceneConfig(
             render_width=max(self.render_size, self.image_size),
             render_height=max(self.render_size, self.image_size),
@@ -137,13 +141,13 @@ class ForceTaskEnv(gym.Env):
         t.bind(self.model, self.index, self.frame)
 
         self.timestep = float(self.model.opt.timestep)
-        self.control_dt = 1.0 / t.control_hz
+        self.control_dt = 1.0 / spec.control_hz
         self.n_substeps = int(round(self.control_dt / self.timestep))
         if abs(self.n_substeps * self.timestep - self.control_dt) > 1e-9:
             raise ValueError(
                 f"control period {self.control_dt} s is not a multiple of the timestep {self.timestep} s"
             )
-        self.metadata = {**self.metadata, "render_fps": int(round(t.control_hz))}  # an int: PyAV needs one
+        self.metadata = {**self.metadata, "render_fps": int(round(spec.control_hz))}  # an int: PyAV needs one
         # at least 2 steps: reset settles half before `after_settle`, and the tare needs a tail sample
         self.settle_steps = max(2, int(round(settle_seconds / self.timestep)))
         self.force_cutoff_hz = force_cutoff_hz
@@ -201,18 +205,14 @@ class ForceTaskEnv(gym.Env):
         self._renderers: dict[int, mujoco.Renderer] = {}
         self._episode_started = False
 
-    def task_options(self) -> dict[str, Any]:
-        """Extra keyword arguments for the task's constructor (e.g. the grasping tasks' ``object_name``)."""
-        return {}
-
     # ---- LeRobot rollout contract ---------------------------------------------------------------------
     @property
     def task_description(self) -> str:
-        return self.task_class.description
+        return self.task_class.spec.description
 
     @property
     def task(self) -> str:
-        return self.task_class.description
+        return self.task_class.spec.description
 
     # ---- reset -------------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -239,7 +239,7 @@ class ForceTaskEnv(gym.Env):
         )
         if not ik.converged:
             raise RuntimeError(
-                f"{t.name}: start pose {start.tcp_pos} unreachable (IK error {ik.position_error:.4f} m, "
+                f"{t.spec.name}: start pose {start.tcp_pos} unreachable (IK error {ik.position_error:.4f} m, "
                 f"{ik.orientation_error:.4f} rad)"
             )
         d.qpos[ix.arm_qpos] = ik.qpos

@@ -46,7 +46,7 @@ from ..layout import (
     OBS_IMAGES_PREFIX,
     OBS_STATE,
 )
-from .registration import make, object_kwargs, task_entry
+from .registration import make, object_kwargs, task_spec
 from .scene import CAMERA
 
 EPISODES_FILE = "forcemap_episodes.json"
@@ -118,7 +118,7 @@ def record_demonstrations(
     # Checked before any work, and the dataset is written beside `out` (staging): a failed run leaves
     # an existing dataset at `out` as it was, and no half-written one.
     out = check_output(out, overwrite=overwrite)
-    entry = task_entry(task)
+    entry = task_spec(task)
     env_kwargs = object_kwargs(task, object_name)
     env = make(
         task,
@@ -138,7 +138,7 @@ def record_demonstrations(
     )
     features[CONTACT_FORCE] = {"dtype": "float32", "shape": (3,), "names": list(CONTACT_FORCE_NAMES)}
     features[DEMO_PHASE] = {"dtype": "int64", "shape": (1,), "names": None}
-    fps = int(round(base.task_impl.control_hz))
+    fps = int(round(entry.control_hz))
     root = partial_dir(out)
     dataset = LeRobotDataset.create(
         repo_id=repo_id or f"local/forcemap_{task}",
@@ -158,7 +158,7 @@ def record_demonstrations(
             attempt += 1
             demo_rng = np.random.default_rng(np.random.SeedSequence(ep_seed).spawn(1)[0])
             demo = make_demonstrator(
-                task, demo_rng, state_names=names[ENV_STATE], control_hz=base.task_impl.control_hz
+                task, demo_rng, state_names=names[ENV_STATE], control_hz=entry.control_hz
             )
             demo_cls = type(demo)
             obs, info = env.reset(seed=ep_seed)
@@ -253,7 +253,7 @@ def _write_metadata(result: RecordResult, base, demo_cls, fps: int, images: bool
     t = base.task_impl
     meta = {
         "task": result.task,
-        "gym_id": task_entry(result.task).gym_id,
+        "gym_id": task_spec(result.task).gym_id,
         "robot": base.robot.name,
         "fps": fps,
         "controller": {

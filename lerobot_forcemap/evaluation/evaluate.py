@@ -299,10 +299,10 @@ def evaluate_policy(
 def _match_control_rate(policy, task: str) -> None:
     """A forcemap skill fitted at another rate than the task's control rate (a real 50 fps demonstration
     in the 20 Hz sim) advances by the env's control period per step: ``control_fps`` is set, with a note."""
-    from lerobot_forcemap.envs.registration import task_entry
+    from lerobot_forcemap.envs.registration import task_spec
 
     cfg = policy.config
-    rate = task_entry(task).control_hz
+    rate = task_spec(task).control_hz
     if getattr(cfg, "type", None) != "forcemap" or cfg.control_fps is not None or abs(cfg.fps - rate) < 1e-9:
         return
     cfg.control_fps = rate

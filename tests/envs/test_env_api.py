@@ -13,15 +13,13 @@ from .conftest import TASK_NAMES
 from .helpers import assert_seed_determinism, check_task_env
 
 
-def test_gym_ids_registered_with_task_lengths():
-    for name, entry in TASKS.items():
-        assert entry.gym_id in gym.registry
-        module, cls = entry.entry_point.split(":")
-        task_class = getattr(importlib.import_module(module), cls).task_class
-        assert task_class.name == name
-        assert task_class.max_episode_steps == entry.max_episode_steps
-        assert task_class.control_hz == entry.control_hz
-        assert gym.spec(entry.gym_id).max_episode_steps == entry.max_episode_steps
+def test_gym_ids_registered_from_the_task_specs():
+    for name, spec in TASKS.items():
+        assert spec.name == name and spec.gym_id in gym.registry
+        module, cls = spec.entry_point.split(":")
+        assert getattr(importlib.import_module(module), cls).task_class.spec is spec
+        assert gym.spec(spec.gym_id).max_episode_steps == spec.max_episode_steps
+        assert gym.spec(spec.gym_id).entry_point == spec.entry_point
     assert {"lerobot_forcemap/Press-v0", "lerobot_forcemap/Erase-v0", "lerobot_forcemap/PegInHole-v0"} <= set(
         gym.registry
     )
@@ -78,6 +76,19 @@ def test_bad_actions_and_options_raise():
         # NaN used to pass: NaN forces, no protective stop, max_contact_force 0
         with pytest.raises(ValueError, match="force_cutoff_hz must be a positive finite frequency"):
             E.make("press", force_cutoff_hz=cutoff)
+
+
+def test_an_object_for_a_task_without_objects_is_a_value_error_naming_object():
+    """gym.make(press, object=...) was a bare TypeError (an unexpected keyword argument)."""
+    with pytest.raises(
+        ValueError,
+        match=r"^object: must be None: task 'press' has no objects \(tasks with objects: grasp_push, "
+        r"grasp_flip\), got 'apple'$",
+    ):
+        gym.make("lerobot_forcemap/Press-v0", object="apple")
+    env = gym.make("lerobot_forcemap/Press-v0", object=None)  # None: no object chosen
+    assert env.unwrapped.object_name is None
+    env.close()
 
 
 def test_settle_seconds_must_be_a_finite_non_negative_duration():

@@ -66,7 +66,7 @@ def test_record_cli_and_overwrite_guard(tmp_path):
         main(["record", "--task", "peg_in_hole", "--episodes", "1", "--seed", "5", "--out", str(out)])
     before = _tree(out)
     # a mistake found while setting up leaves the existing dataset as it was, even with --overwrite
-    with pytest.raises(ValueError, match="object: task 'peg_in_hole' has no objects"):
+    with pytest.raises(ValueError, match="object: must be None: task 'peg_in_hole' has no objects"):
         main(
             [
                 "record",
