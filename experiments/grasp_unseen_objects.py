@@ -34,7 +34,7 @@ from tqdm import tqdm  # noqa: E402
 
 import lerobot_forcemap.envs as E  # noqa: E402
 from lerobot_forcemap import layout  # noqa: E402
-from lerobot_forcemap.envs.demonstrators import make_demonstrator, run_episode  # noqa: E402
+from lerobot_forcemap.envs.demonstrators import make_demonstrator, run_demonstration  # noqa: E402
 from lerobot_forcemap.envs.record import EPISODES_FILE  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
@@ -106,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
             infos = []
             for seed in tqdm(range(100, 100 + args.seeds), desc=f"{task} {obj} demonstrator", leave=False):
                 demo = make_demonstrator(task, np.random.default_rng(seed), state_names=names)
-                infos.append(run_episode(env, demo, seed)[1])
+                infos.append(run_demonstration(env, demo, seed).info)
             rows.append({"task": task, "object": obj, "method": "demonstrator", **summarise(infos)})
             infos = [
                 replay(env, d, phases, 200 + k)
