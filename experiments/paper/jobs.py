@@ -293,32 +293,30 @@ def run_episode(
 ) -> dict[str, Any]:
     """One episode: ``reset(obs)`` after ``env.reset(seed=seed)``, then ``act(obs) -> action (8,)``
     until the episode ends. Returns the record (fields of ``forcemap eval`` + per-finger forces)."""
+    from lerobot_forcemap.envs.rollout import Step
+    from lerobot_forcemap.envs.rollout import run_episode as run_env_episode
+
     base = env.unwrapped
-    obs, info = env.reset(seed=seed)
-    reset(obs)
-    rows: list[list[float]] = []
-    forces: list[np.ndarray] = []  # contact force after each step (20 Hz samples of the filtered force)
-    grips: list[float] = []  # the gripper command of that step
-    steps = 0
-    terminated = truncated = False
-    t0 = time.perf_counter()
-    while not (terminated or truncated):
-        a = np.asarray(act(obs), dtype=np.float64).reshape(-1)
-        grips.append(float(a[layout.ACTION_GRIPPER]))
+
+    def act64(obs: dict) -> np.ndarray:
+        return np.asarray(act(obs), dtype=np.float64).reshape(-1)
+
+    def sample(step: Step) -> tuple[np.ndarray, float, list[float] | None]:
+        """The contact force after the step (20 Hz samples of the filtered force), the gripper command
+        of the step, and the trace row."""
+        a = step.action
+        row = None
         if trace:
-            rows.append(
-                [
-                    steps / base.metadata["render_fps"],
-                    *info["contact_force"],
-                    *obs[layout.ENV_EE_POSE][:3],
-                    *a[:3],
-                    a[7],
-                ]
-            )
-        obs, _, terminated, truncated, info = env.step(a.astype(np.float32))
-        forces.append(np.asarray(info["contact_force"], dtype=np.float64))
-        steps += 1
-    record = episode_outcome(seed, info, truncated, steps, t0)
+            t = step.index / base.metadata["render_fps"]
+            row = [t, *step.info["contact_force"], *step.obs[layout.ENV_EE_POSE][:3], *a[:3], a[7]]
+        force = np.asarray(step.next_info["contact_force"], dtype=np.float64)
+        return force, float(a[layout.ACTION_GRIPPER]), row
+
+    episode = run_env_episode(env, act64, seed, reset=reset, trace=sample)
+    info, obs = episode.info, episode.obs
+    forces = [s[0] for s in episode.trace]
+    grips = [s[1] for s in episode.trace]
+    record = episode_outcome(episode)
     for k in (*FORCE_KEYS, *FINGER_KEYS):
         if k in info:
             record[k] = to_json(info[k])
@@ -332,7 +330,7 @@ def run_episode(
     if trace:
         record["trace"] = {
             "columns": list(TRACE_COLUMNS),
-            "rows": to_json(np.round(np.asarray(rows), 5)),
+            "rows": to_json(np.round(np.asarray([s[2] for s in episode.trace]), 5)),
             "environment_state": to_json(obs[layout.ENV_STATE]) if layout.ENV_STATE in obs else None,
             "environment_state_names": list(base.state_names.get(layout.ENV_STATE, ())),
         }
