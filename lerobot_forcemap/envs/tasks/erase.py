@@ -20,12 +20,11 @@ from typing import ClassVar
 import mujoco
 import numpy as np
 
-from ...geometry import quat_rotate
+from ...geometry import quat_rotate, quat_to_matrix
 from ..control import Workspace
 from ..robots import ENV_CONAFFINITY, ENV_CONTYPE, ROBOT_CONAFFINITY, ROBOT_CONTYPE
 from ..robots.parallel_gripper import PALM_LENGTH
 from ..scene import ContactMonitor
-from ..sensing import quat_to_mat
 from .base import ForceTask, StartState, StepBlock, TaskSpec, TaskStatus
 
 SPEC = TaskSpec(
@@ -235,7 +234,7 @@ class EraseTask(ForceTask):
         if pressing.any():
             rows = sd[pressing]
             felt_pos = rows[:, self._felt_pos]
-            rot = quat_to_mat(rows[:, self._felt_quat])
+            rot = quat_to_matrix(rows[:, self._felt_quat])
             # ink in each felt frame: R^T (ink - p), shapes (k, N_INK, 3)
             rel = self._ink_world[None, :, :] - felt_pos[:, None, :]
             local = np.einsum("kji,knj->kni", rot, rel)
