@@ -38,7 +38,7 @@ from lerobot_forcemap.envs.demonstrators import make_demonstrator, run_demonstra
 from lerobot_forcemap.envs.record import EPISODES_FILE  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
-TASKS = {"grasp_push": "book", "grasp_flip": "carton"}
+TASKS = ("grasp_push", "grasp_flip")
 GRASP_PHASES = ("reach", "descend", "grasp", "lift", "hold")
 
 
@@ -98,9 +98,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.seeds < 1:
         parser.error(f"--seeds must be >= 1, got {args.seeds}")
     rows = []
-    for task, demo_object in TASKS.items():
+    for task in TASKS:
         demos, phases = load_demos(task)
-        for obj in (demo_object, "apple", "banana"):
+        for obj in E.task_spec(task).objects:  # the demonstration object first, then the unseen ones
             env = E.make(task, object=obj, render_mode=None)
             names = env.unwrapped.state_names[layout.ENV_STATE]
             infos = []
