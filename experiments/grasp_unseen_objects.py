@@ -34,11 +34,11 @@ from tqdm import tqdm  # noqa: E402
 
 import lerobot_forcemap.envs as E  # noqa: E402
 from lerobot_forcemap import layout  # noqa: E402
-from lerobot_forcemap.envs.demonstrators import make_demonstrator, run_episode  # noqa: E402
+from lerobot_forcemap.envs.demonstrators import make_demonstrator, run_demonstration  # noqa: E402
 from lerobot_forcemap.envs.record import EPISODES_FILE  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
-TASKS = {"grasp_push": "book", "grasp_flip": "carton"}
+TASKS = ("grasp_push", "grasp_flip")
 GRASP_PHASES = ("reach", "descend", "grasp", "lift", "hold")
 
 
@@ -64,7 +64,7 @@ def replay(env, demo: dict[str, np.ndarray], phases: list[str], seed: int) -> di
     first_grasp = int(np.argmax(np.isin(phase, GRASP_PHASES)))
     shift = np.zeros(3)
     shift[:2] = obs[layout.ENV_STATE][:2] - state[0, :2]
-    limit = env.unwrapped.task_impl.max_episode_steps
+    limit = env.unwrapped.task_impl.spec.max_episode_steps
     for k in range(limit):  # after the last frame: hold it (a policy's reproduction ends the same way)
         i = min(k, len(actions) - 1)
         if k == first_grasp:
@@ -98,15 +98,15 @@ def main(argv: list[str] | None = None) -> int:
     if args.seeds < 1:
         parser.error(f"--seeds must be >= 1, got {args.seeds}")
     rows = []
-    for task, demo_object in TASKS.items():
+    for task in TASKS:
         demos, phases = load_demos(task)
-        for obj in (demo_object, "apple", "banana"):
+        for obj in E.task_spec(task).objects:  # the demonstration object first, then the unseen ones
             env = E.make(task, object=obj, render_mode=None)
             names = env.unwrapped.state_names[layout.ENV_STATE]
             infos = []
             for seed in tqdm(range(100, 100 + args.seeds), desc=f"{task} {obj} demonstrator", leave=False):
                 demo = make_demonstrator(task, np.random.default_rng(seed), state_names=names)
-                infos.append(run_episode(env, demo, seed)[1])
+                infos.append(run_demonstration(env, demo, seed).info)
             rows.append({"task": task, "object": obj, "method": "demonstrator", **summarise(infos)})
             infos = [
                 replay(env, d, phases, 200 + k)

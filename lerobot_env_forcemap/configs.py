@@ -1,4 +1,7 @@
-"""LeRobot ``EnvConfig`` per forcemap task: ``lerobot-eval --env.type=forcemap_press --policy.path=...``.
+"""LeRobot ``EnvConfig`` per forcemap task, derived from the task specs: ``lerobot-eval
+--env.type=forcemap_press --policy.path=...``. Every registered task gets a dataclass registered as
+``TaskSpec.env_type`` (``forcemap_<task>``) whose ``task`` and ``episode_length`` default to the spec's
+``env_id`` and ``max_episode_steps``; a task with objects also has the ``object`` field.
 
 Raw env keys map to LeRobot keys as ``lerobot.envs.utils.preprocess_observation`` does in 0.6.1:
 ``agent_pos`` -> ``observation.state``, ``environment_state`` -> ``observation.environment_state``,
@@ -8,7 +11,7 @@ Raw env keys map to LeRobot keys as ``lerobot.envs.utils.preprocess_observation`
 (``lerobot_forcemap.layout.ENV_TO_FEATURE``) so a policy built from the env config sees the force.
 
 Defaults render videos (``render_mode="rgb_array"``, 256 px front camera, no shadows); ``obs_type=
-"pixels_state"`` adds 128 px camera observations. fps = the task's control rate (20 Hz).
+"pixels_state"`` adds 128 px camera observations. fps = the task's control rate (not configurable).
 
 ``--env.env_state_extras=ee_pose,force`` (default empty) adds an env processor that appends those
 observations to ``observation.environment_state`` — how force reaches ACT / Diffusion, which read only
@@ -18,14 +21,18 @@ state, environment state and images (``env_state.py``; the training side is a de
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, make_dataclass
 from typing import ClassVar
 
 from lerobot.configs import FeatureType, PolicyFeature
 from lerobot.envs.configs import EnvConfig
 
 from lerobot_forcemap import layout
-from lerobot_forcemap.envs.registration import NAMESPACE, task_entry
+from lerobot_forcemap._validation import check_choice, check_int, fail
+from lerobot_forcemap.envs.base_env import OBS_TYPES
+from lerobot_forcemap.envs.registration import NAMESPACE, TASKS, TaskSpec, env_class, task_spec
+
+__all__ = ["ENV_TYPES", "ForcemapEnvConfig", "ForcemapGraspEnvConfig", "env_config_class", "task_features"]
 
 _FEATURE_TYPES = {
     layout.ENV_AGENT_POS: FeatureType.STATE,
@@ -36,23 +43,13 @@ _FEATURE_TYPES = {
 }
 
 
-def _task_class(task: str):
-    """The ``ForceTask`` subclass of a registered task (imports its module, hence MuJoCo)."""
-    import importlib
-
-    module, cls = task_entry(task).entry_point.split(":")
-    return getattr(importlib.import_module(module), cls).task_class
-
-
 def task_features(task: str, *, obs_type: str = "state", image_size: int = 128, robot: str | None = None):
     """(features, features_map) of a task's env, from its task class and robot (imports MuJoCo)."""
     from lerobot_forcemap.envs.robots import get_robot
 
-    task_class = _task_class(task)
-    robot_spec = get_robot(robot or task_class.robot_name)
-    # the task's own robot checks (peg_in_hole needs the parallel gripper), when the config is built: the
-    # features of an impossible pairing used to be made and the env refused only in make_env
-    task_class(robot_spec, randomize=False)
+    task_class = env_class(task).task_class
+    robot_spec = get_robot(robot or task_spec(task).robot)
+    task_class(robot_spec, randomize=False)  # the task's own robot checks (peg_in_hole's gripper)
     sizes = {
         layout.ENV_AGENT_POS: len(robot_spec.joint_names) + 1,
         layout.ENV_EE_POSE: layout.EE_POSE_DIM,
@@ -99,7 +96,7 @@ def _extend_env_state_feature(
 
 @dataclass
 class ForcemapEnvConfig(EnvConfig):
-    """Shared fields of the forcemap tasks (subclasses set ``forcemap_task``, ``task``, ``episode_length``)."""
+    """Shared fields of the forcemap tasks; :func:`env_config_class` derives one subclass per task."""
 
     forcemap_task: ClassVar[str] = ""
     task: str | None = None
@@ -119,31 +116,24 @@ class ForcemapEnvConfig(EnvConfig):
     env_state_extras: str = ""
 
     def __post_init__(self):
-        gym_id = task_entry(self.forcemap_task).gym_id
-        if self.task is None or f"{NAMESPACE}/{self.task}" != gym_id:
+        spec = task_spec(self.forcemap_task)
+        if self.task != spec.env_id:
             # another task's env would run under this config's features, fps and episode length
-            raise ValueError(
-                f"task: --env.type={self.type} runs {gym_id.split('/', 1)[1]!r}, got task={self.task!r} "
-                "(pick the task with --env.type, e.g. forcemap_erase)"
+            fail(
+                "task",
+                f"be {spec.env_id!r}: --env.type={self.type} runs that task (pick the task with --env.type, "
+                "e.g. forcemap_erase)",
+                self.task,
             )
         for name in ("episode_length", "image_size", "render_size"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"{name} must be a positive integer, got {value!r}")
-        if self.obs_type not in ("state", "pixels_state"):
-            raise ValueError(f"obs_type must be 'state' or 'pixels_state', got {self.obs_type!r}")
+            check_int(name, getattr(self, name), low=1)
+        check_choice("obs_type", self.obs_type, OBS_TYPES)
         if self.render_mode != "rgb_array":
             # lerobot-eval always writes videos from env.render(); without frames eval_info.json would
             # list videos that were never written
-            raise ValueError(
-                f"render_mode must be 'rgb_array' (LeRobot's eval renders videos from it), got {self.render_mode!r}"
-            )
-        rate = task_entry(self.forcemap_task).control_hz
-        if self.fps != rate:  # LeRobot writes eval videos at fps; the simulation always steps at its rate
-            raise ValueError(
-                f"fps: the {self.forcemap_task} task runs at its control rate, {rate:g} Hz, which is not "
-                f"configurable; got fps={self.fps!r}"
-            )
+            fail("render_mode", "be 'rgb_array' (LeRobot's eval renders videos from it)", self.render_mode)
+        if self.fps != spec.control_hz:  # LeRobot writes eval videos at fps; the simulation steps at its rate
+            fail("fps", f"be {spec.control_hz:g}: the {spec.name} task runs at its control rate", self.fps)
         if not self.features:
             self.features, self.features_map = task_features(
                 self.forcemap_task, obs_type=self.obs_type, image_size=self.image_size, robot=self.robot
@@ -181,44 +171,16 @@ class ForcemapEnvConfig(EnvConfig):
         }
 
 
-@EnvConfig.register_subclass("forcemap_press")
-@dataclass
-class ForcemapPressEnv(ForcemapEnvConfig):
-    forcemap_task: ClassVar[str] = "press"
-    task: str | None = "Press-v0"
-    episode_length: int = task_entry("press").max_episode_steps
-
-
-@EnvConfig.register_subclass("forcemap_erase")
-@dataclass
-class ForcemapEraseEnv(ForcemapEnvConfig):
-    forcemap_task: ClassVar[str] = "erase"
-    task: str | None = "Erase-v0"
-    episode_length: int = task_entry("erase").max_episode_steps
-
-
-@EnvConfig.register_subclass("forcemap_peg_in_hole")
-@dataclass
-class ForcemapPegInHoleEnv(ForcemapEnvConfig):
-    forcemap_task: ClassVar[str] = "peg_in_hole"
-    task: str | None = "PegInHole-v0"
-    episode_length: int = task_entry("peg_in_hole").max_episode_steps
-
-
 @dataclass
 class ForcemapGraspEnvConfig(ForcemapEnvConfig):
-    """The Gen3 grasping tasks add ``object`` (None: the task's demonstration object; or ``apple``,
-    ``banana``), e.g. ``lerobot-eval --env.type=forcemap_grasp_push --env.object=apple``."""
+    """A task with objects adds ``object`` (None: the task's demonstration object), e.g. ``lerobot-eval
+    --env.type=forcemap_grasp_push --env.object=apple``."""
 
     object: str | None = None
 
     def __post_init__(self):
         super().__post_init__()
-        objects = _task_class(self.forcemap_task).objects
-        if self.object is not None and self.object not in objects:  # else only make_env would say so
-            raise ValueError(
-                f"object: {self.forcemap_task} has no object {self.object!r}; choose one of {list(objects)}"
-            )
+        task_spec(self.forcemap_task).check_object(self.object)  # else only make_env would say so
 
     @property
     def gym_kwargs(self) -> dict:
@@ -228,26 +190,28 @@ class ForcemapGraspEnvConfig(ForcemapEnvConfig):
         return kwargs
 
 
-@EnvConfig.register_subclass("forcemap_grasp_push")
-@dataclass
-class ForcemapGraspPushEnv(ForcemapGraspEnvConfig):
-    forcemap_task: ClassVar[str] = "grasp_push"
-    task: str | None = "GraspPush-v0"
-    episode_length: int = task_entry("grasp_push").max_episode_steps
+def env_config_class(spec: TaskSpec) -> type[ForcemapEnvConfig]:
+    """The ``EnvConfig`` dataclass of a task, registered as ``spec.env_type`` (``ForcemapPressEnv`` ...)."""
+    name = "Forcemap" + "".join(part.title() for part in spec.name.split("_")) + "Env"
+    cls = make_dataclass(
+        name,
+        [
+            ("task", "str | None", field(default=spec.env_id)),
+            ("episode_length", "int", field(default=spec.max_episode_steps)),
+        ],
+        bases=(ForcemapGraspEnvConfig if spec.objects else ForcemapEnvConfig,),
+        namespace={
+            "forcemap_task": spec.name,
+            "__module__": __name__,
+            "__doc__": f"``--env.type={spec.env_type}``: {spec.description}",
+        },
+    )
+    globals()[name] = cls  # importable by name (pickle, draccus' error messages)
+    return EnvConfig.register_subclass(spec.env_type)(cls)
 
 
-@EnvConfig.register_subclass("forcemap_grasp_flip")
-@dataclass
-class ForcemapGraspFlipEnv(ForcemapGraspEnvConfig):
-    forcemap_task: ClassVar[str] = "grasp_flip"
-    task: str | None = "GraspFlip-v0"
-    episode_length: int = task_entry("grasp_flip").max_episode_steps
-
-
-ENV_TYPES = {
-    "press": "forcemap_press",
-    "erase": "forcemap_erase",
-    "peg_in_hole": "forcemap_peg_in_hole",
-    "grasp_push": "forcemap_grasp_push",
-    "grasp_flip": "forcemap_grasp_flip",
-}
+#: task name -> LeRobot env type
+ENV_TYPES: dict[str, str] = {}
+for _spec in TASKS.values():
+    env_config_class(_spec)
+    ENV_TYPES[_spec.name] = _spec.env_type

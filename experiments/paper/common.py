@@ -22,6 +22,7 @@ from typing import Any
 REPO = Path(__file__).resolve().parents[2]
 
 from experiments.paper.jobs import EVAL_SEEDS, TUNE_SEEDS, Job, split_seeds  # noqa: E402
+from lerobot_forcemap.envs.registration import task_spec  # noqa: E402
 
 WORKDIR = REPO / "outputs" / "experiments"
 RESULTS = REPO / "results"
@@ -54,7 +55,9 @@ TABLE2_HYBRID = {"press": {"force_threshold": 8.0}, "erase": {"force_threshold":
 #: let a segment anchor to an object that settles by up to 2 cm during it (the book after it is stood
 #: up), look 15 cm around the hand, and anchor a segment that moves an object by where the object goes
 #: (``anchor_by_moved_object``: the push to the wall -> the wall; the lift -> follows the grasp)
-GRASP_TASKS = {"grasp_push": ("book", ("apple", "banana")), "grasp_flip": ("carton", ("apple", "banana"))}
+GRASP_TASKS = {
+    task: (task_spec(task).objects[0], task_spec(task).objects[1:]) for task in ("grasp_push", "grasp_flip")
+}
 GRASP_OVERRIDES = ("static_tolerance=0.02", "anchor_radius=0.15", "anchor_by_moved_object=true")
 
 #: the paper's segmentation weightings (Table I; Cartesian, joints, gripper, wrist force, finger force)

@@ -44,7 +44,6 @@ from lerobot_forcemap.evaluation.evaluate import FORCE_KEYS, episode_outcome, to
 __all__ = [
     "EVAL_SEEDS",
     "TUNE_SEEDS",
-    "ANCHOR_OBJECT",
     "FORCE_KEYS",
     "FINGER_KEYS",
     "Job",
@@ -70,14 +69,6 @@ __all__ = [
 EVAL_SEEDS: tuple[int, ...] = tuple(range(1000, 1020))
 #: seeds used only for choosing settings (never reported as results)
 TUNE_SEEDS: tuple[int, ...] = (2000, 2001)
-#: the object a demonstration is re-anchored to for the hybrid / replay baselines
-ANCHOR_OBJECT = {
-    "press": "button",
-    "erase": "board",
-    "peg_in_hole": "peg",
-    "grasp_push": "obj",
-    "grasp_flip": "obj",
-}
 FINGER_KEYS = ("max_finger_force", "mean_finger_force")
 REPO_ROOT = Path(__file__).resolve().parents[2]
 #: version of the episode records and of the episode loop (part of the cache fingerprint)
@@ -302,32 +293,30 @@ def run_episode(
 ) -> dict[str, Any]:
     """One episode: ``reset(obs)`` after ``env.reset(seed=seed)``, then ``act(obs) -> action (8,)``
     until the episode ends. Returns the record (fields of ``forcemap eval`` + per-finger forces)."""
+    from lerobot_forcemap.envs.rollout import Step
+    from lerobot_forcemap.envs.rollout import run_episode as run_env_episode
+
     base = env.unwrapped
-    obs, info = env.reset(seed=seed)
-    reset(obs)
-    rows: list[list[float]] = []
-    forces: list[np.ndarray] = []  # contact force after each step (20 Hz samples of the filtered force)
-    grips: list[float] = []  # the gripper command of that step
-    steps = 0
-    terminated = truncated = False
-    t0 = time.perf_counter()
-    while not (terminated or truncated):
-        a = np.asarray(act(obs), dtype=np.float64).reshape(-1)
-        grips.append(float(a[layout.ACTION_GRIPPER]))
+
+    def act64(obs: dict) -> np.ndarray:
+        return np.asarray(act(obs), dtype=np.float64).reshape(-1)
+
+    def sample(step: Step) -> tuple[np.ndarray, float, list[float] | None]:
+        """The contact force after the step (20 Hz samples of the filtered force), the gripper command
+        of the step, and the trace row."""
+        a = step.action
+        row = None
         if trace:
-            rows.append(
-                [
-                    steps / base.metadata["render_fps"],
-                    *info["contact_force"],
-                    *obs[layout.ENV_EE_POSE][:3],
-                    *a[:3],
-                    a[7],
-                ]
-            )
-        obs, _, terminated, truncated, info = env.step(a.astype(np.float32))
-        forces.append(np.asarray(info["contact_force"], dtype=np.float64))
-        steps += 1
-    record = episode_outcome(seed, info, truncated, steps, t0)
+            t = step.index / base.metadata["render_fps"]
+            row = [t, *step.info["contact_force"], *step.obs[layout.ENV_EE_POSE][:3], *a[:3], a[7]]
+        force = np.asarray(step.next_info["contact_force"], dtype=np.float64)
+        return force, float(a[layout.ACTION_GRIPPER]), row
+
+    episode = run_env_episode(env, act64, seed, reset=reset, trace=sample)
+    info, obs = episode.info, episode.obs
+    forces = [s[0] for s in episode.trace]
+    grips = [s[1] for s in episode.trace]
+    record = episode_outcome(episode)
     for k in (*FORCE_KEYS, *FINGER_KEYS):
         if k in info:
             record[k] = to_json(info[k])
@@ -341,7 +330,7 @@ def run_episode(
     if trace:
         record["trace"] = {
             "columns": list(TRACE_COLUMNS),
-            "rows": to_json(np.round(np.asarray(rows), 5)),
+            "rows": to_json(np.round(np.asarray([s[2] for s in episode.trace]), 5)),
             "environment_state": to_json(obs[layout.ENV_STATE]) if layout.ENV_STATE in obs else None,
             "environment_state_names": list(base.state_names.get(layout.ENV_STATE, ())),
         }
@@ -394,8 +383,9 @@ def _lerobot_actor(policy, pre, post, task_description: str):
 def _baseline_actor(job: Job, demo: DemoEpisode):
     """(reset, act) of the hybrid or replay baseline following the re-anchored demonstration."""
     from lerobot_forcemap.envs.hybrid_control import HybridConfig, HybridForcePositionPolicy
+    from lerobot_forcemap.envs.registration import task_spec
 
-    anchor = ANCHOR_OBJECT[job.task]
+    anchor = task_spec(job.task).anchor  # the object the demonstration is re-anchored to
     state: dict[str, Any] = {}
 
     def reset(obs: dict) -> None:

@@ -520,7 +520,7 @@ def plot_force_profiles(cells, path: Path, demo_episode: int = 0) -> Path | None
 
 def plot_paths(cells, path: Path, demo_episode: int = 0) -> Path | None:
     """Target and executed TCP height relative to the task object (press, peg) and the erase path seen from above."""
-    from experiments.paper.jobs import ANCHOR_OBJECT
+    from lerobot_forcemap.envs.registration import task_spec
 
     plt = _plt()
     fig, axes = plt.subplots(1, 3, figsize=(16, 4.6))
@@ -528,7 +528,7 @@ def plot_paths(cells, path: Path, demo_episode: int = 0) -> Path | None:
     for ax, (exp, task) in zip(
         axes, (("table2", "press"), ("table2", "erase"), ("peg", "peg_in_hole")), strict=True
     ):
-        anchor = ANCHOR_OBJECT[task]
+        anchor = task_spec(task).anchor
         for name in ("demonstration", "hybrid", "ours"):
             rec = (
                 _demo_trace(task, demo_episode)

@@ -23,7 +23,7 @@ from lerobot_forcemap.lerobot_logs import quiet_torchcodec_warning
 # name -> (module, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "record": (
-        "lerobot_forcemap.envs.record",
+        "lerobot_forcemap.cli.record",
         "record scripted demonstrations of a sim task into a LeRobot dataset",
     ),
     "convert": (

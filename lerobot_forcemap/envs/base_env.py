@@ -1,9 +1,10 @@
 """``ForceTaskEnv``: the gymnasium env shared by every robot and task.
 
-One control step (``1 / task.control_hz`` s, default 20 Hz):
+One control step (``1 / TaskSpec.control_hz`` s, 20 Hz for every task):
 
 1. the action ``[x y z qw qx qy qz gripper]`` (base frame, ``lerobot_forcemap.layout``) is checked
-   (shape, finite), its quaternion normalised, and the target clipped to the task's workspace box and
+   (shape (8,); every entry finite with magnitude <= ``MAX_ACTION_MAGNITUDE`` = 1e6, else
+   ``ValueError`` naming the entry), its quaternion normalised, and the target clipped to the task's workspace box and
    speed limit — every clip is reported in ``info`` (``target_clipped``, ``clip_*``);
 2. the target is interpolated per physics step (linear + slerp) and moved along by the impedance
    controller's mocap body; MuJoCo computes the impedance wrench at each 2 ms step;
@@ -34,6 +35,7 @@ import mujoco
 import numpy as np
 from gymnasium import spaces
 
+from .._validation import check_bool, check_choice, check_int, check_real, fail, first_bad_index
 from ..geometry import quat_to_matrix
 from ..layout import (
     ACTION_DIM,
@@ -62,12 +64,24 @@ _ACCEPTED_RESET_OPTIONS = {"lerobot_new_rollout"}
 #: largest camera / render image side (pixels) accepted; the offscreen framebuffer is sized to it
 MAX_IMAGE_SIZE = 4096
 
+#: largest magnitude of an action entry: positions are in metres, so a larger one is no target (and its
+#: clip distance would overflow); such an action is refused like a NaN
+MAX_ACTION_MAGNITUDE = 1e6
+
 #: the process that first made a MuJoCo renderer: a process fork()ed from it inherits a GL state that hangs
 _GL_PID: int | None = None
 
 
 class ForceTaskEnv(gym.Env):
-    """Gymnasium env for one :class:`ForceTask` on one robot (see the module docstring)."""
+    """Gymnasium env for one :class:`ForceTask` on one robot (see the module docstring).
+
+    Keyword arguments: ``obs_type`` ``"state"`` or ``"pixels_state"`` (adds ``pixels/front`` images of
+    ``image_size`` px); ``render_mode`` ``"rgb_array"`` or None (``render()`` at ``render_size`` px);
+    ``robot``: a registered robot name (default: the task's); ``force_cutoff_hz``: low-pass of the
+    force observations and statistics; ``randomize``: draw the scene from the seed (False: nominal);
+    ``settle_seconds``: simulated settling before the tare at reset; ``object``: one of the task's
+    ``TaskSpec.objects`` (None: the first; tasks without objects take only None).
+    """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 20}
     task_class: ClassVar[type[ForceTask]]
@@ -83,45 +97,47 @@ class ForceTaskEnv(gym.Env):
         force_cutoff_hz: float = 10.0,
         randomize: bool = True,
         settle_seconds: float = 0.3,
+        object: str | None = None,  # noqa: A002 - the public kwarg name
     ):
-        if obs_type not in OBS_TYPES:
-            raise ValueError(f"obs_type must be one of {OBS_TYPES}, got {obs_type!r}")
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
-                f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}"
-            )
-        for name, size in (("image_size", image_size), ("render_size", render_size)):
-            # a bool passed as 1 pixel; 20000 failed at reset() in MuJoCo's offscreen framebuffer
-            if isinstance(size, bool) or int(size) != size or not 1 <= size <= MAX_IMAGE_SIZE:
-                raise ValueError(f"{name} must be a number of pixels in [1, {MAX_IMAGE_SIZE}], got {size!r}")
-        if not isinstance(randomize, (bool, np.bool_)):  # "no" is truthy: it randomised
-            raise ValueError(f"randomize must be True or False, got {randomize!r}")
-
-        def numeric(x: object) -> bool:
-            return isinstance(x, (int, float, np.number)) and not isinstance(x, bool)
-
-        if not (numeric(force_cutoff_hz) and 0 < force_cutoff_hz < float("inf")):
-            # NaN would pass a `<= 0` test, then turn the force observations and the protective stop off
-            raise ValueError(
-                f"force_cutoff_hz must be a positive finite frequency (Hz), got {force_cutoff_hz!r}"
-            )
-        if not (numeric(settle_seconds) and 0 <= settle_seconds < float("inf")):
-            # a negative one used to become the 2-step minimum silently, NaN to crash in int()
-            raise ValueError(f"settle_seconds must be a finite duration >= 0 (s), got {settle_seconds!r}")
-        self.obs_type = obs_type
+        spec = self.task_class.spec
+        self.obs_type = check_choice("obs_type", obs_type, OBS_TYPES)
+        if render_mode is not None:
+            check_choice("render_mode", render_mode, self.metadata["render_modes"])
         self.render_mode = render_mode
-        self.image_size = int(image_size)
-        self.render_size = int(render_size)
-        self.robot: RobotSpec = get_robot(robot or self.task_class.robot_name)
-        self.task_impl: ForceTask = self.task_class(self.robot, randomize=randomize, **self.task_options())
+        self.image_size = check_int("image_size", image_size, low=1, high=MAX_IMAGE_SIZE)
+        self.render_size = check_int("render_size", render_size, low=1, high=MAX_IMAGE_SIZE)
+        randomize = check_bool("randomize", randomize)  # "no" is truthy: it would randomise
+        # NaN would pass a `<= 0` test, then turn the force observations and the protective stop off
+        self.force_cutoff_hz = check_real(
+            "force_cutoff_hz", force_cutoff_hz, low=0.0, low_open=True, unit="Hz"
+        )
+        settle_seconds = check_real("settle_seconds", settle_seconds, low=0.0, unit="s")
+        self.object_name = spec.check_object(object) or spec.default_object
+        self.robot: RobotSpec = get_robot(robot or spec.robot)
+        options = {"object_name": self.object_name} if spec.objects else {}
+        self.task_impl: ForceTask = self.task_class(self.robot, randomize=randomize, **options)
+        self._build_model()
+        self._set_timing(settle_seconds)
+        self._index_sensor_columns()
+        self._define_spaces()
+        self._wrench_filter = LowPass(self.force_cutoff_hz, self.timestep, 6)
+        self._contact_filter = LowPass(self.force_cutoff_hz, self.timestep, 3)
+        self._finger_filter = (
+            LowPass(self.force_cutoff_hz, self.timestep, 3 * self._n_fingers) if self._n_fingers else None
+        )
+        self._renderers: dict[int, mujoco.Renderer] = {}
+        self._episode_started = False
+
+    def _build_model(self) -> None:
+        """Scene spec, compiled model, data (and a scratch copy for IK), the scene index; binds the task."""
+        t = self.task_impl
         self.scene_config = SceneConfig(
             render_width=max(self.render_size, self.image_size),
             render_height=max(self.render_size, self.image_size),
         )
         self.frame = BaseFrame.from_config(self.scene_config)
-        t = self.task_impl
         self.gains = t.gains()
-        self.spec = build_scene(
+        self.mj_spec = build_scene(
             self.robot,
             t.add_objects,
             t.contacts(),
@@ -130,24 +146,28 @@ class ForceTaskEnv(gym.Env):
             config=self.scene_config,
             extra_sensors=t.add_sensors,
         )
-        self.model = self.spec.compile()
+        self.model = self.mj_spec.compile()
         self.data = mujoco.MjData(self.model)
         self._scratch = mujoco.MjData(self.model)
         self.index = index_scene(self.model, self.robot, t.sensor_names)
         t.bind(self.model, self.index, self.frame)
 
+    def _set_timing(self, settle_seconds: float) -> None:
+        """Physics timestep, control period and its physics steps, settle steps, the render rate."""
+        control_hz = self.task_class.spec.control_hz
         self.timestep = float(self.model.opt.timestep)
-        self.control_dt = 1.0 / t.control_hz
+        self.control_dt = 1.0 / control_hz
         self.n_substeps = int(round(self.control_dt / self.timestep))
         if abs(self.n_substeps * self.timestep - self.control_dt) > 1e-9:
             raise ValueError(
                 f"control period {self.control_dt} s is not a multiple of the timestep {self.timestep} s"
             )
-        self.metadata = {**self.metadata, "render_fps": int(round(t.control_hz))}  # an int: PyAV needs one
+        self.metadata = {**self.metadata, "render_fps": int(round(control_hz))}  # an int: PyAV needs one
         # at least 2 steps: reset settles half before `after_settle`, and the tare needs a tail sample
         self.settle_steps = max(2, int(round(settle_seconds / self.timestep)))
-        self.force_cutoff_hz = force_cutoff_hz
 
+    def _index_sensor_columns(self) -> None:
+        """sensordata columns and MjData views the step reads (looked up once)."""
         ix = self.index
         self._n_fingers = len(ix.finger_sensors)
         self._state_size = mujoco.mj_stateSize(self.model, mujoco.mjtState.mjSTATE_INTEGRATION)
@@ -174,11 +194,13 @@ class ForceTaskEnv(gym.Env):
         self._base_rot_inv = None if self.frame.is_identity else quat_to_matrix(self.frame.quat).T
         self._tool_ref_quat = np.asarray(self.robot.tool_down_quat, dtype=float)
 
+    def _define_spaces(self) -> None:
+        """``state_names`` (the observation layout) and the observation and action spaces."""
         self.state_names: dict[str, tuple[str, ...]] = {
             ENV_AGENT_POS: state_names(self.robot.joint_names),
             ENV_EE_POSE: tuple(EE_POSE_NAMES),
             ENV_FORCE: tuple(FORCE_NAMES),
-            ENV_STATE: tuple(t.state_names),
+            ENV_STATE: tuple(self.task_impl.state_names),
         }
         if self._n_fingers:
             self.state_names[ENV_FINGER_FORCE] = finger_force_names(self._n_fingers)
@@ -186,33 +208,26 @@ class ForceTaskEnv(gym.Env):
             key: spaces.Box(-np.inf, np.inf, shape=(len(names),), dtype=np.float32)
             for key, names in self.state_names.items()
         }
-        if obs_type == "pixels_state":
+        if self.obs_type == "pixels_state":
             obs_spaces[ENV_PIXELS] = spaces.Dict(
                 {CAMERA: spaces.Box(0, 255, shape=(self.image_size, self.image_size, 3), dtype=np.uint8)}
             )
         self.observation_space = spaces.Dict(obs_spaces)
-        ws = t.workspace
+        ws = self.task_impl.workspace
         self.action_space = spaces.Box(
             low=np.array([*ws.low, -1, -1, -1, -1, 0], dtype=np.float32),
             high=np.array([*ws.high, 1, 1, 1, 1, 1], dtype=np.float32),
             dtype=np.float32,
         )
-        assert self.action_space.shape == (ACTION_DIM,)
-        self._renderers: dict[int, mujoco.Renderer] = {}
-        self._episode_started = False
-
-    def task_options(self) -> dict[str, Any]:
-        """Extra keyword arguments for the task's constructor (e.g. the grasping tasks' ``object_name``)."""
-        return {}
 
     # ---- LeRobot rollout contract ---------------------------------------------------------------------
     @property
     def task_description(self) -> str:
-        return self.task_class.description
+        return self.task_class.spec.description
 
     @property
     def task(self) -> str:
-        return self.task_class.description
+        return self.task_class.spec.description
 
     # ---- reset -------------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -222,9 +237,17 @@ class ForceTaskEnv(gym.Env):
             raise ValueError(
                 f"reset: unknown options {sorted(unknown)}; accepted: {sorted(_ACCEPTED_RESET_OPTIONS)}"
             )
+        mujoco.mj_resetData(self.model, self.data)
+        start: StartState = self.task_impl.reset(self.model, self.data, self.np_random)
+        pos_w, quat_w = self._place_robot(start)
+        self._settle_and_tare()
+        self._start_episode(start, pos_w, quat_w)
+        return self._observation(), self._info()
+
+    def _place_robot(self, start: StartState) -> tuple[np.ndarray, np.ndarray]:
+        """Arm at the start pose (offline IK), fingers and gripper command, impedance target and damping;
+        returns the start pose in the world."""
         m, d, ix, t = self.model, self.data, self.index, self.task_impl
-        mujoco.mj_resetData(m, d)
-        start: StartState = t.reset(m, d, self.np_random)
         pos_w = self.frame.pos_to_world(np.asarray(start.tcp_pos, float))
         quat_w = self.frame.quat_to_world(np.asarray(start.tcp_quat, float))
         ik = solve_ik(
@@ -239,7 +262,7 @@ class ForceTaskEnv(gym.Env):
         )
         if not ik.converged:
             raise RuntimeError(
-                f"{t.name}: start pose {start.tcp_pos} unreachable (IK error {ik.position_error:.4f} m, "
+                f"{t.spec.name}: start pose {start.tcp_pos} unreachable (IK error {ik.position_error:.4f} m, "
                 f"{ik.orientation_error:.4f} rad)"
             )
         d.qpos[ix.arm_qpos] = ik.qpos
@@ -253,7 +276,11 @@ class ForceTaskEnv(gym.Env):
         self.damping = set_impedance_damping(
             m, d, ix.impedance_actuators, ix.tcp_site, ix.arm_dof, self.gains
         )
+        return pos_w, quat_w
 
+    def _settle_and_tare(self) -> None:
+        """Settle steps around the task's hooks, then the tare from the last samples at rest."""
+        m, d, t = self.model, self.data, self.task_impl
         t.before_settle(m, d)
         half = self.settle_steps // 2
         for _ in range(half):
@@ -266,15 +293,15 @@ class ForceTaskEnv(gym.Env):
             tail[i] = self._sensordata
         self._tare(tail[-min(25, n_tail) :])
 
+    def _start_episode(self, start: StartState, pos_w: np.ndarray, quat_w: np.ndarray) -> None:
+        """Previous targets, filters, statistics and counters of a new episode."""
         self._prev_pos = np.asarray(start.tcp_pos, float).copy()
         self._prev_quat = self._align(np.asarray(start.tcp_quat, float))
         self._prev_pos_w = pos_w.copy()
         self._prev_quat_w = quat_w.copy()
-        self._wrench_filter = LowPass(self.force_cutoff_hz, self.timestep, 6)
-        self._contact_filter = LowPass(self.force_cutoff_hz, self.timestep, 3)
-        self._finger_filter = (
-            LowPass(self.force_cutoff_hz, self.timestep, 3 * self._n_fingers) if self._n_fingers else None
-        )
+        for f in (self._wrench_filter, self._contact_filter, self._finger_filter):
+            if f is not None:
+                f.reset()
         self._wrench = np.zeros(6)
         self._contact = np.zeros(3)
         self._finger = np.zeros(3 * self._n_fingers)
@@ -283,7 +310,7 @@ class ForceTaskEnv(gym.Env):
         self.finger_stats = [ForceStats() for _ in range(self._n_fingers)]
         for s in self.finger_stats:
             s.reset()
-        self._t0 = float(d.time)
+        self._t0 = float(self.data.time)
         self._steps = 0
         self._n_clipped = 0
         self._protective_stop = False
@@ -293,7 +320,6 @@ class ForceTaskEnv(gym.Env):
         self._warned_ended = False
         self._last_clip = ClipReport()
         self._clip_gripper = False  # the last step's clip reports, cleared with the episode
-        return self._observation(), self._info()
 
     def _tare(self, rows: np.ndarray) -> None:
         """Payload model from the tool subtree at rest, plus the remaining bias (e.g. a held object)."""
@@ -308,25 +334,9 @@ class ForceTaskEnv(gym.Env):
 
     # ---- step ----------------------------------------------------------------------------------------------
     def step(self, action):
-        if not self._episode_started:
-            raise RuntimeError("call reset() before step()")
-        if self._ended and not self._warned_ended:
-            # a real arm stays stopped after a protective stop; the simulation would go on from there
-            warnings.warn(
-                f"step() after the episode ended ({self._info()['termination_reason']}); the simulation "
-                "continues, but call reset() to start a new episode",
-                stacklevel=2,
-            )
-            self._warned_ended = True
-        a = np.asarray(action, dtype=float)
-        if a.shape != (ACTION_DIM,):  # a (1, 8) batch row or a (2, 4) array is not an action either
-            raise ValueError(
-                f"action must have shape ({ACTION_DIM},) = [x y z qw qx qy qz gripper], got {np.shape(action)}"
-            )
-        if not np.all(np.isfinite(a)):
-            bad = [i for i in range(ACTION_DIM) if not np.isfinite(a[i])]
-            raise ValueError(f"action has non-finite values at indices {bad} (step {self._steps})")
-        m, d, ix, t = self.model, self.data, self.index, self.task_impl
+        self._check_episode()
+        a = self._check_action(action)
+        d, ix, t = self.data, self.index, self.task_impl
         pos_b, quat_b, clip = clip_target(
             a[:3], a[3:7], self._prev_pos, self._prev_quat, self.control_dt, t.workspace, t.speed_limit
         )
@@ -340,27 +350,9 @@ class ForceTaskEnv(gym.Env):
         P, Q = interpolate_targets(self._prev_pos_w, self._prev_quat_w, pos_w, quat_w, self.n_substeps)
         lo, hi = ix.gripper_ctrlrange
         d.ctrl[ix.gripper_actuator] = lo + grip * (hi - lo)
-
-        mujoco.mj_getState(m, d, self._saved_state, mujoco.mjtState.mjSTATE_INTEGRATION)
-        buf, mpos, mquat, sd, mid = self._buf, self._mocap_pos, self._mocap_quat, self._sensordata, ix.mocap
-        for i in range(self.n_substeps):
-            mpos[mid] = P[i]
-            mquat[mid] = Q[i]
-            mujoco.mj_step(m, d)
-            buf[i] = sd
-
+        buf = self._simulate(P, Q)
         wrench, contact, finger, stop_at = self._process_block(buf)
-        n = self.n_substeps
-        if stop_at is not None:
-            # Protective stop: the arm halts at the physics step where the limit was crossed.
-            mujoco.mj_setState(m, d, self._saved_state, mujoco.mjtState.mjSTATE_INTEGRATION)
-            for i in range(stop_at + 1):
-                mpos[mid] = P[i]
-                mquat[mid] = Q[i]
-                mujoco.mj_step(m, d)
-            n = stop_at + 1
-            self._mocap_pos[mid] = d.site_xpos[ix.tcp_site]
-            self._protective_stop = True
+        n = self.n_substeps if stop_at is None else self._protective_stop_at(stop_at, P, Q)
         self._commit_filters(wrench[:n], contact[:n], finger[:n] if finger is not None else None)
         self.contact_stats.update(contact[:n])
         for k, s in enumerate(self.finger_stats):
@@ -380,9 +372,69 @@ class ForceTaskEnv(gym.Env):
         success = self._status.success and not self._protective_stop
         terminated = bool(self._protective_stop or self._status.success or self._status.failed)
         self._ended = self._ended or terminated
-        obs = self._observation()
-        info = self._info()
-        return obs, float(success), terminated, False, info
+        return self._observation(), float(success), terminated, False, self._info()
+
+    def _check_episode(self) -> None:
+        if not self._episode_started:
+            raise RuntimeError("call reset() before step()")
+        if self._ended and not self._warned_ended:
+            # a real arm stays stopped after a protective stop; the simulation would go on from there
+            warnings.warn(
+                f"step() after the episode ended ({self._info()['termination_reason']}); the simulation "
+                "continues, but call reset() to start a new episode",
+                stacklevel=3,
+            )
+            self._warned_ended = True
+
+    def _check_action(self, action) -> np.ndarray:
+        """``action`` as float64 ``(8,)``, every entry finite and within ``MAX_ACTION_MAGNITUDE``."""
+        a = np.asarray(action, dtype=float)
+        if a.shape != (ACTION_DIM,):  # a (1, 8) batch row or a (2, 4) array is not an action either
+            fail(
+                "action",
+                f"have shape ({ACTION_DIM},) = [x y z qw qx qy qz gripper], got shape {np.shape(action)}",
+            )
+        bad = ~(np.abs(a) <= MAX_ACTION_MAGNITUDE)  # NaN compares False: refused too
+        if bad.any():
+            i = first_bad_index(bad)[0]
+            fail(
+                f"action[{i}]",
+                f"be a finite number of magnitude <= {MAX_ACTION_MAGNITUDE:g} (step {self._steps})",
+                float(a[i]),
+            )
+        return a
+
+    def _simulate(self, P: np.ndarray, Q: np.ndarray) -> np.ndarray:
+        """The control step's physics steps along the interpolated targets ``P (n, 3)``, ``Q (n, 4)``;
+        returns their sensordata rows (the state before them is saved for a protective stop)."""
+        m, d = self.model, self.data
+        mujoco.mj_getState(m, d, self._saved_state, mujoco.mjtState.mjSTATE_INTEGRATION)
+        buf, mpos, mquat, sd, mid = (
+            self._buf,
+            self._mocap_pos,
+            self._mocap_quat,
+            self._sensordata,
+            self.index.mocap,
+        )
+        for i in range(self.n_substeps):
+            mpos[mid] = P[i]
+            mquat[mid] = Q[i]
+            mujoco.mj_step(m, d)
+            buf[i] = sd
+        return buf
+
+    def _protective_stop_at(self, stop_at: int, P: np.ndarray, Q: np.ndarray) -> int:
+        """Rewind and replay the block up to the physics step ``stop_at`` where the limit was crossed (the
+        arm halts there, its target at the TCP); returns the number of physics steps that happened."""
+        m, d, mid = self.model, self.data, self.index.mocap
+        mujoco.mj_setState(m, d, self._saved_state, mujoco.mjtState.mjSTATE_INTEGRATION)
+        for i in range(stop_at + 1):
+            self._mocap_pos[mid] = P[i]
+            self._mocap_quat[mid] = Q[i]
+            mujoco.mj_step(m, d)
+        self._mocap_pos[mid] = d.site_xpos[self.index.tcp_site]
+        self._protective_stop = True
+        return stop_at + 1
 
     def _process_block(self, buf: np.ndarray):
         ix, t = self.index, self.task_impl

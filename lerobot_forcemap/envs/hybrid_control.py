@@ -19,11 +19,11 @@ The policy reads the ``force`` and ``ee_pose`` observations (``lerobot_forcemap.
 
 from __future__ import annotations
 
-import numbers
 from dataclasses import dataclass
 
 import numpy as np
 
+from .._validation import check_array, check_real, fail
 from ..layout import ACTION_DIM, EE_POS, ENV_EE_POSE, ENV_FORCE, FORCE_LINEAR
 
 POSITION = "position"
@@ -42,27 +42,17 @@ class HybridConfig:
 
     def __post_init__(self):
         # NaN passes a `<= 0` test and then never engages force control (or returns NaN targets)
-        positive = ["force_threshold", "stiffness", "control_hz"]
-        if self.force_setpoint is not None:
-            positive.append("force_setpoint")
-        for name in positive:
-            value = getattr(self, name)
-            if not (isinstance(value, numbers.Real) and 0 < value < float("inf")):
-                raise ValueError(f"HybridConfig.{name} must be positive and finite, got {value!r}")
-        if not (isinstance(self.integral_gain, numbers.Real) and 0 <= self.integral_gain < float("inf")):
-            raise ValueError(
-                f"HybridConfig.integral_gain must be >= 0 and finite, got {self.integral_gain!r}"
-            )
-        if not (isinstance(self.release_fraction, numbers.Real) and 0 <= self.release_fraction < 1):
-            raise ValueError(
-                f"HybridConfig.release_fraction must be in [0, 1), got {self.release_fraction!r}"
-            )
+        for name, unit in (("force_threshold", "N"), ("stiffness", "N/m"), ("control_hz", "Hz")):
+            check_real(f"HybridConfig.{name}", getattr(self, name), low=0.0, low_open=True, unit=unit)
+        check_real(
+            "HybridConfig.force_setpoint", self.force_setpoint, low=0.0, low_open=True, unit="N", none_ok=True
+        )
+        check_real("HybridConfig.integral_gain", self.integral_gain, low=0.0, unit="1/s")
+        check_real("HybridConfig.release_fraction", self.release_fraction, low=0.0, high=1.0, high_open=True)
         if self.normal is not None:
             n = np.asarray(self.normal, dtype=float)
             if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) < 1e-9:
-                raise ValueError(
-                    f"normal must be a finite non-zero 3-vector (or None: measured), got {self.normal!r}"
-                )
+                fail("HybridConfig.normal", "be a finite non-zero 3-vector (or None: measured)", self.normal)
 
 
 class HybridForcePositionPolicy:
@@ -74,15 +64,9 @@ class HybridForcePositionPolicy:
     """
 
     def __init__(self, demo_actions: np.ndarray, config: HybridConfig = HybridConfig()):
-        actions = np.asarray(demo_actions, dtype=float)
-        if actions.ndim != 2 or actions.shape[1] != ACTION_DIM or len(actions) == 0:
-            raise ValueError(
-                f"demo_actions must have shape (T, {ACTION_DIM}) with T >= 1, got {actions.shape}"
-            )
-        if not np.all(np.isfinite(actions)):
-            t = int(np.argwhere(~np.isfinite(actions))[0, 0])
-            raise ValueError(f"demo_actions is not finite at step {t}")
-        self.demo = actions
+        self.demo = check_array(
+            "demo_actions", demo_actions, shape=(None, ACTION_DIM), min_len=1, axes=("step", "column")
+        )
         self.config = config
         self.reset()
 

@@ -1,22 +1,21 @@
-"""``forcemap record``: scripted demonstrations of a sim task into a LeRobot v3 dataset.
-
-    forcemap record --task press --episodes 5 --seed 0 --out datasets/press [--images] [--object apple]
+"""Scripted demonstrations of a sim task into a LeRobot v3 dataset (the library part of ``forcemap
+record``; the command line is ``lerobot_forcemap/cli/record.py``).
 
 Episode ``e`` runs the env with seed ``seed + k`` (k counts attempts) and a demonstrator whose
 generator is spawned from the same seed. Failed demonstrations are not written (the paper excluded
 demonstrations that hit the safety stop), and each skip is reported. fps = the task's control rate.
 
 Per frame: ``observation.state/ee_pose/force/environment_state`` (+ ``finger_force`` for grippers with
-fingertip sensors, + ``observation.images.front`` with ``--images``), ``action``, and two ground-truth
+fingertip sensors, + ``observation.images.front`` with ``images``), ``action``, and two ground-truth
 columns from ``layout``: ``contact_force`` (the env's filtered contact force) and ``demo_phase``.
 Per episode, ``meta/forcemap_episodes.json`` holds the seed, the env's ``info`` force statistics
 (max / mean contact force, norm and per axis) and task metrics, and the demonstrator's parameters —
-the numbers a reproduction is compared with.
+the numbers a reproduction is compared with. The dataset is written beside ``out`` and moved there
+only when complete: a failure leaves no dataset, and an existing one untouched.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import shutil
 import warnings
@@ -26,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validation import check_bool, check_int, fail, is_int
 from ..data.hub import check_repo_id
 from ..data.staging import check_output, partial_dir, replace_dir
 from ..layout import (
@@ -46,14 +46,20 @@ from ..layout import (
     OBS_IMAGES_PREFIX,
     OBS_STATE,
 )
-from .registration import make, object_kwargs, task_entry
+from .registration import TaskSpec, make, object_kwargs, task_spec
+from .rollout import Episode, Step, run_episode
 from .scene import CAMERA
+
+__all__ = ["EPISODES_FILE", "RecordResult", "episode_record", "record_demonstrations", "summary"]
 
 EPISODES_FILE = "forcemap_episodes.json"
 
 
 @dataclass
 class RecordResult:
+    """What :func:`record_demonstrations` wrote: the dataset root, the seeds recorded and skipped, and
+    the per-episode records of ``meta/forcemap_episodes.json``."""
+
     root: Path
     task: str
     n_episodes: int
@@ -99,27 +105,20 @@ def record_demonstrations(
     progress: bool = True,
     object_name: str | None = None,
 ) -> RecordResult:
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset
-    from tqdm import tqdm
+    """Record ``episodes`` successful scripted demonstrations of ``task`` into a dataset at ``out``.
 
-    from ..data.schema import add_episode, dataset_features
-    from .demonstrators import make_demonstrator
-
-    if episodes < 1:
-        raise ValueError(f"episodes (--episodes) must be >= 1, got {episodes}")
-    # numpy's SeedSequence would refuse it only later, as "expected non-negative integer"
-    if seed < 0:
-        raise ValueError(f"seed (--seed) must be a non-negative integer, got {seed}")
-    limit = max_attempts if max_attempts is not None else 3 * episodes
-    if limit < episodes:
-        raise ValueError(f"max_attempts (--max-attempts) must be >= episodes ({episodes}), got {limit}")
-    if repo_id is not None:
-        check_repo_id(repo_id, "repo_id (--repo-id)")
+    ``seed``: of the first attempt; ``images``: also the front camera at ``image_size`` px (video);
+    ``repo_id``: default ``local/forcemap_<task>``; ``overwrite``: replace a dataset at ``out``;
+    ``max_attempts``: give up after that many attempts (default ``3 * episodes``); ``object_name``: the
+    grasping tasks' object. Raises ``ValueError`` for bad arguments before any work, ``RuntimeError``
+    when too few demonstrations succeed (nothing written).
+    """
+    spec, limit, env_kwargs = _check_arguments(
+        task, episodes, seed, max_attempts, repo_id, images, overwrite, object_name
+    )
     # Checked before any work, and the dataset is written beside `out` (staging): a failed run leaves
     # an existing dataset at `out` as it was, and no half-written one.
     out = check_output(out, overwrite=overwrite)
-    entry = task_entry(task)
-    env_kwargs = object_kwargs(task, object_name)
     env = make(
         task,
         obs_type="pixels_state" if images else "state",
@@ -127,77 +126,71 @@ def record_demonstrations(
         image_size=image_size,
         **env_kwargs,
     )
-    base = env.unwrapped
+    root = partial_dir(out)
+    try:
+        result = _record(env, spec, episodes, seed, limit, root, out, repo_id, images, image_size, progress)
+    finally:
+        env.close()
+    replace_dir(out, root)
+    result.root = out
+    return result
+
+
+def _check_arguments(task, episodes, seed, max_attempts, repo_id, images, overwrite, object_name):
+    """(spec, attempt limit, env kwargs) after checking every argument of :func:`record_demonstrations`."""
+    spec = task_spec(task)
+    check_int("episodes (--episodes)", episodes, low=1)
+    # numpy's SeedSequence would refuse it only later, as "expected non-negative integer"
+    check_int("seed (--seed)", seed, low=0)
+    limit = 3 * episodes if max_attempts is None else max_attempts
+    if not (is_int(limit) and limit >= episodes):
+        fail("max_attempts (--max-attempts)", f"be an integer >= episodes ({episodes})", max_attempts)
+    if repo_id is not None:
+        check_repo_id(repo_id, "repo_id (--repo-id)")
+    check_bool("images (--images)", images)
+    check_bool("overwrite (--overwrite)", overwrite)
+    return spec, int(limit), object_kwargs(task, object_name)
+
+
+def _dataset_features(base, images: bool, image_size: int) -> dict[str, dict[str, Any]]:
+    """The recorded columns: the observations of ``base`` (the unwrapped env), action and ground truth."""
+    from ..data.schema import dataset_features
+
     names = base.state_names
-    fingers = ENV_FINGER_FORCE in names
     features = dataset_features(
         names[ENV_AGENT_POS],
-        finger_force_names=names[ENV_FINGER_FORCE] if fingers else None,
+        finger_force_names=names.get(ENV_FINGER_FORCE),
         env_state_names=names[ENV_STATE],
         image_shapes={CAMERA: (image_size, image_size, 3)} if images else None,
     )
     features[CONTACT_FORCE] = {"dtype": "float32", "shape": (3,), "names": list(CONTACT_FORCE_NAMES)}
     features[DEMO_PHASE] = {"dtype": "int64", "shape": (1,), "names": None}
-    fps = int(round(base.task_impl.control_hz))
-    root = partial_dir(out)
+    return features
+
+
+def _record(env, spec: TaskSpec, episodes, seed, limit, root, out, repo_id, images, image_size, progress):
+    """Create the dataset at ``root`` and fill it; removes ``root`` on any failure."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    base = env.unwrapped
+    features = _dataset_features(base, images, image_size)
+    fps = int(round(spec.control_hz))
     dataset = LeRobotDataset.create(
-        repo_id=repo_id or f"local/forcemap_{task}",
+        repo_id=repo_id or f"local/forcemap_{spec.name}",
         fps=fps,
         features=features,
         root=root,
         robot_type=base.robot.name,
         use_videos=images,
     )
-    demo_cls = None
-    result = RecordResult(root=root, task=task, n_episodes=0, seeds=[], skipped_seeds=[])
-    bar = tqdm(total=episodes, desc=f"record {task}", disable=not progress)
-    attempt = 0
     try:
-        while result.n_episodes < episodes and attempt < limit:
-            ep_seed = seed + attempt
-            attempt += 1
-            demo_rng = np.random.default_rng(np.random.SeedSequence(ep_seed).spawn(1)[0])
-            demo = make_demonstrator(
-                task, demo_rng, state_names=names[ENV_STATE], control_hz=base.task_impl.control_hz
-            )
-            demo_cls = type(demo)
-            obs, info = env.reset(seed=ep_seed)
-            demo.reset(obs)
-            cols: dict[str, list] = {k: [] for k in features}
-            for _ in range(entry.max_episode_steps):
-                action = demo.act(obs)
-                cols[OBS_STATE].append(obs[ENV_AGENT_POS])
-                cols[OBS_EE_POSE].append(obs[ENV_EE_POSE])
-                cols[OBS_FORCE].append(obs[ENV_FORCE])
-                cols[OBS_ENV_STATE].append(obs[ENV_STATE])
-                if fingers:
-                    cols[OBS_FINGER_FORCE].append(obs[ENV_FINGER_FORCE])
-                if images:
-                    cols[OBS_IMAGES_PREFIX + CAMERA].append(obs[ENV_PIXELS][CAMERA])
-                cols[ACTION].append(action)
-                cols[CONTACT_FORCE].append(info["contact_force"])
-                cols[DEMO_PHASE].append([demo.phase_index])
-                obs, _, terminated, truncated, info = env.step(action)
-                if terminated or truncated:
-                    break
-            if not info["is_success"]:
-                result.skipped_seeds.append(ep_seed)
-                warnings.warn(
-                    f"record {task}: demonstration with seed {ep_seed} failed ({info['termination_reason'] or 'time limit'}); "
-                    "not recorded",
-                    stacklevel=2,
-                )
-                continue
-            arrays = {k: np.asarray(v) for k, v in cols.items()}
-            n = add_episode(dataset, arrays, base.task_description, episode=result.n_episodes)
-            result.episodes.append(episode_record(info, ep_seed, n, demo.describe()))
-            result.seeds.append(ep_seed)
-            result.n_episodes += 1
-            bar.update(1)
+        result, demo_cls = _record_episodes(
+            env, dataset, features, spec, episodes, seed, limit, root, progress
+        )
         if result.n_episodes < episodes:
             raise RuntimeError(
-                f"record {task}: only {result.n_episodes} of {episodes} demonstrations succeeded in {attempt} "
-                f"attempts (failed seeds {result.skipped_seeds}); nothing written to {out}"
+                f"record {spec.name}: only {result.n_episodes} of {episodes} demonstrations succeeded in "
+                f"{limit} attempts (failed seeds {result.skipped_seeds}); nothing written to {out}"
             )
         dataset.finalize()
         _write_metadata(result, base, demo_cls, fps, images)
@@ -205,15 +198,83 @@ def record_demonstrations(
         dataset.finalize()  # close the writers, then remove the half-written dataset
         shutil.rmtree(root, ignore_errors=True)
         raise
-    finally:
-        bar.close()
-        env.close()
-    replace_dir(out, root)
-    result.root = out
     return result
 
 
-def _summary(episodes: list[dict[str, Any]]) -> dict[str, Any]:
+def _record_episodes(env, dataset, features, spec: TaskSpec, episodes, seed, limit, root, progress):
+    """Attempts seeds ``seed, seed + 1, ...`` until ``episodes`` succeeded or ``limit`` attempts ran;
+    returns the result and the demonstrator class. ``features``: the recorded columns."""
+    from tqdm import tqdm
+
+    from ..data.schema import add_episode
+
+    result = RecordResult(root=root, task=spec.name, n_episodes=0, seeds=[], skipped_seeds=[])
+    demo_cls = None
+    bar = tqdm(total=episodes, desc=f"record {spec.name}", disable=not progress)
+    try:
+        for ep_seed in range(seed, seed + limit):
+            if result.n_episodes == episodes:
+                break
+            episode, demo = _demonstrate(env, spec, ep_seed, features)
+            demo_cls = type(demo)
+            info = episode.info
+            if not info["is_success"]:
+                result.skipped_seeds.append(ep_seed)
+                warnings.warn(
+                    f"record {spec.name}: demonstration with seed {ep_seed} failed "
+                    f"({info['termination_reason'] or 'time limit'}); not recorded",
+                    stacklevel=4,
+                )
+                continue
+            arrays = {k: np.asarray([row[k] for row in episode.trace]) for k in features}
+            n = add_episode(dataset, arrays, env.unwrapped.task_description, episode=result.n_episodes)
+            result.episodes.append(episode_record(info, ep_seed, n, demo.describe()))
+            result.seeds.append(ep_seed)
+            result.n_episodes += 1
+            bar.update(1)
+    finally:
+        bar.close()
+    return result, demo_cls
+
+
+def _demonstrate(env, spec: TaskSpec, ep_seed: int, features) -> tuple[Episode, Any]:
+    """One scripted demonstration with seed ``ep_seed``; ``Episode.trace`` holds a row per frame."""
+    from . import demonstrators
+
+    names = env.unwrapped.state_names
+    demo_rng = np.random.default_rng(np.random.SeedSequence(ep_seed).spawn(1)[0])
+    demo = demonstrators.make_demonstrator(
+        spec.name, demo_rng, state_names=names[ENV_STATE], control_hz=spec.control_hz
+    )
+    fingers = OBS_FINGER_FORCE in features
+    image_key = OBS_IMAGES_PREFIX + CAMERA
+    images = image_key in features
+
+    def row(step: Step) -> dict[str, Any]:
+        obs = step.obs
+        frame = {
+            OBS_STATE: obs[ENV_AGENT_POS],
+            OBS_EE_POSE: obs[ENV_EE_POSE],
+            OBS_FORCE: obs[ENV_FORCE],
+            OBS_ENV_STATE: obs[ENV_STATE],
+            ACTION: step.action,
+            CONTACT_FORCE: step.info["contact_force"],
+            DEMO_PHASE: [demo.phase_index],
+        }
+        if fingers:
+            frame[OBS_FINGER_FORCE] = obs[ENV_FINGER_FORCE]
+        if images:
+            frame[image_key] = obs[ENV_PIXELS][CAMERA]
+        return frame
+
+    episode = run_episode(
+        env, demo.act, ep_seed, reset=demo.reset, trace=row, max_steps=spec.max_episode_steps
+    )
+    return episode, demo
+
+
+def summary(episodes: list[dict[str, Any]]) -> dict[str, Any]:
+    """Mean / std / min / max over episodes of the force figures of :func:`episode_record` records."""
     out = {}
     for key in ("max_contact_force", "mean_contact_force"):
         v = np.array([e[key] for e in episodes], dtype=float)
@@ -248,12 +309,17 @@ def _finger_summary(s: dict[str, Any]) -> str:
 
 
 def _write_metadata(result: RecordResult, base, demo_cls, fps: int, images: bool) -> None:
-    from ..data.schema import write_dataset_card
+    """``meta/forcemap_episodes.json`` and the dataset card of a finished recording."""
+    meta = _episodes_meta(result, base, demo_cls, fps)
+    (result.root / "meta" / EPISODES_FILE).write_text(json.dumps(meta, indent=1))
+    _write_card(result, base, meta, images)
 
+
+def _episodes_meta(result: RecordResult, base, demo_cls, fps: int) -> dict[str, Any]:
     t = base.task_impl
-    meta = {
+    return {
         "task": result.task,
-        "gym_id": task_entry(result.task).gym_id,
+        "gym_id": task_spec(result.task).gym_id,
         "robot": base.robot.name,
         "fps": fps,
         "controller": {
@@ -269,11 +335,15 @@ def _write_metadata(result: RecordResult, base, demo_cls, fps: int, images: bool
         "success_test": t.success_test,
         "demonstrator": demo_cls.__name__ if demo_cls else None,
         "phases": list(demo_cls.phases) if demo_cls else [],
-        "summary": _summary(result.episodes),
+        "summary": summary(result.episodes),
         "episodes": result.episodes,
     }
-    (result.root / "meta" / EPISODES_FILE).write_text(json.dumps(meta, indent=1))
-    s = meta["summary"]
+
+
+def _write_card(result: RecordResult, base, meta: dict[str, Any], images: bool) -> None:
+    from ..data.schema import write_dataset_card
+
+    t, s = base.task_impl, meta["summary"]
     stop = f"filtered contact force > {t.force_limit:g} N"
     extra: dict[str, str] = {}
     if t.finger_force_limit is not None:
@@ -310,52 +380,3 @@ def _write_metadata(result: RecordResult, base, demo_cls, fps: int, images: bool
         },
         tags=["simulation", "mujoco", result.task],
     )
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from .registration import TASKS
-
-    parser.add_argument("--task", required=True, choices=sorted(TASKS), help="sim task")
-    parser.add_argument(
-        "--episodes", type=int, default=5, help="number of successful demonstrations to record"
-    )
-    parser.add_argument(
-        "--seed", type=int, default=0, help="seed of the first episode (episode k uses seed + attempt)"
-    )
-    parser.add_argument("--out", required=True, type=Path, help="dataset root folder")
-    parser.add_argument("--repo-id", default=None, help="dataset repo id (default local/forcemap_<task>)")
-    parser.add_argument("--images", action="store_true", help="also record the front camera (video)")
-    parser.add_argument("--image-size", type=int, default=128, help="camera image size in pixels (square)")
-    parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
-    parser.add_argument(
-        "--max-attempts",
-        type=int,
-        default=None,
-        help="give up after this many attempts, failed demonstrations included (default 3 x --episodes)",
-    )
-    parser.add_argument(
-        "--object", default=None, help="grasping tasks: the object (default: the task's demonstration object)"
-    )
-
-
-def run(args: argparse.Namespace) -> int:
-    result = record_demonstrations(
-        args.task,
-        args.episodes,
-        args.seed,
-        args.out,
-        images=args.images,
-        image_size=args.image_size,
-        repo_id=args.repo_id,
-        overwrite=args.overwrite,
-        max_attempts=args.max_attempts,
-        object_name=args.object,
-    )
-    s = _summary(result.episodes)
-    print(
-        f"wrote {result.n_episodes} episodes of {result.task} to {result.root} (seeds {result.seeds}; "
-        f"skipped {result.skipped_seeds}); max contact force {s['max_contact_force']['mean']:.1f} ± "
-        f"{s['max_contact_force']['std']:.1f} N, mean {s['mean_contact_force']['mean']:.2f} ± "
-        f"{s['mean_contact_force']['std']:.2f} N"
-    )
-    return 0

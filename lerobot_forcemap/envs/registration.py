@@ -1,90 +1,71 @@
-"""Gym ids of the tasks, registered on ``import lerobot_forcemap.envs`` (no MuJoCo import here).
+"""The task registry: each task's :class:`TaskSpec`, read from its task file, and its gym id.
 
-Each entry: task name -> (gym id, entry point, max episode steps at the task's control rate). The
-step counts equal the tasks' ``max_episode_steps`` (a test checks it); they live here too so that
-registering does not import MuJoCo.
+Importing this module imports the task files listed in :data:`TASK_MODULES` (and so MuJoCo) and
+registers their gym ids. Everything that needs to know about the tasks (the LeRobot env types,
+``forcemap record`` / ``eval``, the experiments) reads :data:`TASKS` or :func:`task_spec`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import importlib
 
 import gymnasium as gym
 
-NAMESPACE = "lerobot_forcemap"
+from .._validation import check_choice
+from .tasks.base import NAMESPACE, TaskSpec
+
+__all__ = [
+    "NAMESPACE",
+    "TASKS",
+    "TASK_MODULES",
+    "TaskSpec",
+    "env_class",
+    "make",
+    "object_kwargs",
+    "register_task",
+    "task_spec",
+]
+
+#: the task files of ``envs/tasks/``, each defining ``SPEC``; a new task adds its module here
+TASK_MODULES = ("press", "erase", "peg_in_hole", "grasp_push", "grasp_flip")
+
+#: task name -> spec, in registration order
+TASKS: dict[str, TaskSpec] = {}
 
 
-@dataclass(frozen=True)
-class TaskEntry:
-    gym_id: str
-    entry_point: str
-    max_episode_steps: int
-    control_hz: float = 20.0
+def register_task(spec: TaskSpec) -> TaskSpec:
+    """Add ``spec`` to :data:`TASKS` and register its gym id (for a task defined outside ``envs/tasks``)."""
+    if spec.name in TASKS and TASKS[spec.name] != spec:
+        raise ValueError(f"task {spec.name!r}: already registered as {TASKS[spec.name]}")
+    TASKS[spec.name] = spec
+    if spec.gym_id not in gym.registry:
+        gym.register(id=spec.gym_id, entry_point=spec.entry_point, max_episode_steps=spec.max_episode_steps)
+    return spec
 
 
-TASKS: dict[str, TaskEntry] = {
-    "press": TaskEntry(f"{NAMESPACE}/Press-v0", "lerobot_forcemap.envs.tasks.press:PressEnv", 200),
-    "erase": TaskEntry(f"{NAMESPACE}/Erase-v0", "lerobot_forcemap.envs.tasks.erase:EraseEnv", 600),
-    "peg_in_hole": TaskEntry(
-        f"{NAMESPACE}/PegInHole-v0", "lerobot_forcemap.envs.tasks.peg_in_hole:PegInHoleEnv", 400
-    ),
-    # Kinova Gen3 + three-finger gripper; env kwarg ``object=`` picks the object (tasks/grasping.py)
-    "grasp_push": TaskEntry(
-        f"{NAMESPACE}/GraspPush-v0", "lerobot_forcemap.envs.tasks.grasp_push:GraspPushEnv", 500
-    ),
-    "grasp_flip": TaskEntry(
-        f"{NAMESPACE}/GraspFlip-v0", "lerobot_forcemap.envs.tasks.grasp_flip:GraspFlipEnv", 400
-    ),
-}
-
-
-def register_task(name: str, entry: TaskEntry) -> None:
-    """Add a task (e.g. the Gen3 grasping tasks) to :data:`TASKS` and register its gym id."""
-    if name in TASKS and TASKS[name] != entry:
-        raise ValueError(f"task {name!r} is already registered as {TASKS[name]}")
-    TASKS[name] = entry
-    if entry.gym_id not in gym.registry:
-        gym.register(
-            id=entry.gym_id, entry_point=entry.entry_point, max_episode_steps=entry.max_episode_steps
-        )
-
-
-def register_all() -> None:
-    for name, entry in list(TASKS.items()):
-        register_task(name, entry)
-
-
-def task_entry(task: str) -> TaskEntry:
-    try:
-        return TASKS[task]
-    except KeyError:
-        raise ValueError(f"unknown task {task!r}; known: {sorted(TASKS)}") from None
+def task_spec(task: str) -> TaskSpec:
+    """The spec of a registered task (``ValueError`` naming ``task`` for an unknown one)."""
+    return TASKS[check_choice("task", task, TASKS)]
 
 
 def env_class(task: str) -> type[gym.Env]:
-    """The env class of ``task`` (imports its module, and so MuJoCo)."""
-    import importlib
-
-    module, name = task_entry(task).entry_point.split(":")
+    """The gym env class of ``task``."""
+    module, name = task_spec(task).entry_point.split(":")
     return getattr(importlib.import_module(module), name)
 
 
-def object_kwargs(task: str, object_name: str | None, what: str = "object") -> dict[str, str]:
-    """``{"object": object_name}`` for a task whose env takes an object (the grasping tasks), ``{}`` for
-    ``None``; ``ValueError`` naming ``what`` for a task without objects (``gym.make`` would raise a bare
-    ``TypeError``)."""
+def object_kwargs(task: str, object_name: str | None, name: str = "object") -> dict[str, str]:
+    """``{"object": object_name}`` for a task with objects, ``{}`` for ``None``; ``ValueError`` naming
+    ``name`` for an object the task does not have (checked before any env is made)."""
     if object_name is None:
         return {}
-    import inspect
-
-    if "object" not in inspect.signature(env_class(task)).parameters:
-        raise ValueError(
-            f"{what}: task {task!r} has no objects to choose from (object= is for the grasping tasks)"
-        )
-    return {"object": object_name}
+    return {"object": task_spec(task).check_object(object_name, name)}
 
 
 def make(task: str, **kwargs) -> gym.Env:
     """``gym.make`` by task name (``"press"``, ``"erase"``, ``"peg_in_hole"``, ...)."""
-    register_all()
-    return gym.make(task_entry(task).gym_id, **kwargs)
+    return gym.make(task_spec(task).gym_id, **kwargs)
+
+
+for _module in TASK_MODULES:
+    register_task(importlib.import_module(f"{__package__}.tasks.{_module}").SPEC)

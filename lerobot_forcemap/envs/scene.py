@@ -116,8 +116,23 @@ def build_scene(
     """The full scene spec (compile with ``spec.compile()``).
 
     ``add_objects(spec)`` adds the task's bodies to ``spec.worldbody``; ``extra_sensors(spec, prefix)``
-    adds task sensors (``prefix`` is the robot's element prefix, e.g. ``"ur5e/"``).
+    adds task sensors (``prefix`` is the robot's element prefix, e.g. ``"ur5e/"``). Elements are added
+    in a fixed order (world, task objects, robot, controller, sensors): the compiled model, and so the
+    simulation, depends on it.
     """
+    spec = _new_spec(robot, config)
+    _add_world(spec, config)
+    add_objects(spec)
+    prefix = _attach_robot(spec, robot, tool, config)
+    add_cartesian_impedance(spec, f"{prefix}tcp", TARGET_SITE, gains or robot.impedance)
+    _add_sensors(spec, prefix, contacts)
+    if extra_sensors is not None:
+        extra_sensors(spec, prefix)
+    return spec
+
+
+def _new_spec(robot: RobotSpec, config: SceneConfig) -> mujoco.MjSpec:
+    """An empty spec with the physics options and the offscreen/visual settings."""
     spec = mujoco.MjSpec()
     spec.modelname = f"forcemap_{robot.name}"
     spec.compiler.autolimits = True
@@ -133,7 +148,11 @@ def build_scene(
     spec.visual.quality.offsamples = 0
     spec.visual.headlight.ambient = [0.45, 0.45, 0.45]
     spec.visual.headlight.diffuse = [0.5, 0.5, 0.5]
+    return spec
 
+
+def _add_world(spec: mujoco.MjSpec, config: SceneConfig) -> None:
+    """Light, floor, table, the front camera and the impedance target's mocap body."""
     world = spec.worldbody
     world.add_light(name="top", pos=[0.3, 0, 2.0], dir=[0, 0, -1], castshadow=False)
     world.add_geom(
@@ -158,18 +177,24 @@ def build_scene(
         quat=_look_at_quat(cam_pos, np.asarray(config.camera_lookat, float)),
         fovy=45,
     )
-
     target = world.add_body(name=TARGET_BODY, mocap=True)
     target.add_site(name=TARGET_SITE, size=[0.006, 0, 0], rgba=[0.1, 0.8, 0.1, 0.5], group=4)
 
-    add_objects(spec)
 
+def _attach_robot(
+    spec: mujoco.MjSpec, robot: RobotSpec, tool: ToolBuilder | None, config: SceneConfig
+) -> str:
+    """Attach the assembled robot at its base pose; returns its element prefix (``"<name>/"``)."""
     arm = assemble_robot(robot, tool)
-    frame = world.add_frame(pos=list(config.robot_base_pos), quat=list(config.robot_base_quat))
+    frame = spec.worldbody.add_frame(pos=list(config.robot_base_pos), quat=list(config.robot_base_quat))
     prefix = f"{robot.name}/"
     spec.attach(arm, prefix=prefix, frame=frame)
+    return prefix
 
-    add_cartesian_impedance(spec, f"{prefix}tcp", TARGET_SITE, gains or robot.impedance)
+
+def _add_sensors(spec: mujoco.MjSpec, prefix: str, contacts: ContactMonitor) -> None:
+    """Wrist force, torque and orientation at the F/T site; a contact sensor per monitored pair; per held
+    body, the count of its contacts with the robot."""
     site = mujoco.mjtObj.mjOBJ_SITE
     spec.add_sensor(
         name="wrist_force", type=mujoco.mjtSensor.mjSENS_FORCE, objtype=site, objname=f"{prefix}ft_site"
@@ -200,9 +225,6 @@ def build_scene(
             refname=f"{prefix}base",
             intprm=[_CONTACT_DATA_FOUND, 0, 1],  # the number of contacts between the held body and the robot
         )
-    if extra_sensors is not None:
-        extra_sensors(spec, prefix)
-    return spec
 
 
 def held_found_sensor(body: str) -> str:

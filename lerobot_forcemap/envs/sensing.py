@@ -1,6 +1,6 @@
 """Wrist wrench and contact-force processing, vectorised over the physics steps of one control step.
 
-Conventions (SPEC §3): every force the env reports is the *reaction on the robot* (the environment's
+Conventions: every force the env reports is the *reaction on the robot* (the environment's
 force on the robot, pointing away from a contact surface), in the robot base frame. MuJoCo's
 ``force``/``torque`` sensors at the F/T site report what the arm exerts on the sensor-and-tool subtree
 in the site frame, i.e. the opposite sign plus the payload's weight; this module removes the payload
@@ -14,25 +14,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter
+
+from ..geometry import quat_to_matrix
 
 GRAVITY = 9.81
-
-
-def quat_to_mat(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices ``(n, 3, 3)`` of unit quaternions ``(n, 4)`` (w first; no normalisation: sensor output)."""
-    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    out = np.empty((len(q), 3, 3))
-    out[:, 0, 0] = 1 - 2 * (y * y + z * z)
-    out[:, 0, 1] = 2 * (x * y - w * z)
-    out[:, 0, 2] = 2 * (x * z + w * y)
-    out[:, 1, 0] = 2 * (x * y + w * z)
-    out[:, 1, 1] = 1 - 2 * (x * x + z * z)
-    out[:, 1, 2] = 2 * (y * z - w * x)
-    out[:, 2, 0] = 2 * (x * z - w * y)
-    out[:, 2, 1] = 2 * (y * z + w * x)
-    out[:, 2, 2] = 1 - 2 * (x * x + y * y)
-    return out
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
@@ -51,7 +36,7 @@ class Payload:
 
         The arm supports the payload: force ``m g z_world`` (up), torque ``c x f`` about the site.
         """
-        return self.expected_wrench_from_mat(quat_to_mat(np.atleast_2d(quat_site)))
+        return self.expected_wrench_from_mat(quat_to_matrix(np.atleast_2d(quat_site)))
 
     def expected_wrench_from_mat(self, rot: np.ndarray) -> np.ndarray:
         f_site = self.mass * GRAVITY * rot[:, 2, :]  # R^T (0, 0, m g): the third row of R
@@ -71,7 +56,7 @@ def reaction_wrench_base(
     ``quat_site (n, 4)``: site orientation in the world; ``bias_site (6,)``: tare in the site frame;
     ``base_rot_inv (3, 3)``: world-to-base rotation (None: the base frame is the world frame).
     """
-    rot = quat_to_mat(quat_site)
+    rot = quat_to_matrix(quat_site)
     tool_site = (
         raw_site - payload.expected_wrench_from_mat(rot) - bias_site
     )  # what the tool applies, site frame
@@ -90,8 +75,10 @@ class LowPass:
     """
 
     def __init__(self, cutoff_hz: float, dt: float, dim: int):
-        if not (cutoff_hz > 0 and dt > 0):  # NaN fails this too
-            raise ValueError(f"cutoff_hz and dt must be positive, got {cutoff_hz}, {dt}")
+        """``cutoff_hz`` > 0 and ``dt`` > 0 (s): checked by the env that makes the filter."""
+        from scipy.signal import lfilter  # imported with the first env, not with the package
+
+        self._lfilter = lfilter
         self.alpha = 1.0 - float(np.exp(-2.0 * np.pi * cutoff_hz * dt))
         self._b = np.array([self.alpha])
         self._a = np.array([1.0, self.alpha - 1.0])
@@ -104,7 +91,7 @@ class LowPass:
     def __call__(self, block: np.ndarray) -> np.ndarray:
         """Filter ``block (n, dim)``; returns ``(n, dim)`` and advances the state."""
         zi = ((1.0 - self.alpha) * self.state)[None, :]
-        out, _ = lfilter(self._b, self._a, block, axis=0, zi=zi)
+        out, _ = self._lfilter(self._b, self._a, block, axis=0, zi=zi)
         self.state = out[-1].copy()
         return out
 

@@ -27,7 +27,6 @@ import argparse
 import json
 import math
 import sys
-import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -95,19 +94,18 @@ def to_json(v: Any) -> Any:
     return v
 
 
-def episode_outcome(
-    seed: int, info: dict[str, Any], truncated: bool, steps: int, t0: float
-) -> dict[str, Any]:
-    """The head of an episode record from the env's last ``info``: seed, success, protective stop, why
-    it ended (the task's reason, else ``time_limit`` when truncated), steps and wall time since ``t0``
-    (a ``time.perf_counter()`` reading)."""
+def episode_outcome(episode) -> dict[str, Any]:
+    """The head of an episode record from a finished ``lerobot_forcemap.envs.rollout.Episode``: seed,
+    success, protective stop, why it ended (the task's reason, else ``time_limit`` when truncated),
+    steps and wall time."""
+    info = episode.info
     return {
-        "seed": int(seed),
+        "seed": episode.seed,
         "success": bool(info["is_success"]),
         "protective_stop": bool(info["protective_stop"]),
-        "termination_reason": info.get("termination_reason") or ("time_limit" if truncated else ""),
-        "steps": steps,
-        "wall_s": time.perf_counter() - t0,
+        "termination_reason": info.get("termination_reason") or ("time_limit" if episode.truncated else ""),
+        "steps": episode.steps,
+        "wall_s": episode.wall_s,
     }
 
 
@@ -182,19 +180,16 @@ def rollout(
     from lerobot.envs.utils import preprocess_observation
 
     from lerobot_forcemap import layout
+    from lerobot_forcemap.envs.rollout import Step, run_episode
 
     base = env.unwrapped
-    obs, info = env.reset(seed=seed)
-    # a stochastic policy (Diffusion's sampling noise) repeats its episode; forcemap draws nothing
-    torch.manual_seed(seed)
-    policy.reset()
-    steps = 0
-    rows: list[list[float]] = []
-    if frames is not None:
-        frames.append(env.render())
-    terminated = truncated = False
-    t0 = time.perf_counter()
-    while not (terminated or truncated):
+
+    def reset(obs: dict) -> None:
+        # a stochastic policy (Diffusion's sampling noise) repeats its episode; forcemap draws nothing
+        torch.manual_seed(seed)
+        policy.reset()
+
+    def act(obs: dict) -> np.ndarray:
         batch = preprocess_observation(obs)
         batch["task"] = [base.task_description]
         if env_pre is not None:
@@ -202,23 +197,20 @@ def rollout(
         batch = pre(batch)
         with torch.inference_mode():
             action = policy.select_action(batch)
-        action = post(action)
-        a = action.detach().cpu().numpy().reshape(-1)
-        if trace:
-            rows.append(
-                [
-                    steps / base.metadata["render_fps"],
-                    *info["contact_force"],
-                    *obs[layout.ENV_EE_POSE],
-                    *a.tolist(),
-                ]
-            )
-        obs, _, terminated, truncated, info = env.step(a.astype(np.float32))
-        steps += 1
-        if frames is not None:
-            frames.append(env.render())
+        return post(action).detach().cpu().numpy().reshape(-1)
+
+    def row(step: Step) -> list[float]:
+        t = step.index / base.metadata["render_fps"]
+        return [t, *step.info["contact_force"], *step.obs[layout.ENV_EE_POSE], *step.action.tolist()]
+
+    episode = run_episode(
+        env, act, seed, reset=reset, trace=row if trace else None, render=frames is not None
+    )
+    if frames is not None:
+        frames.extend(episode.frames)
+    info, obs = episode.info, episode.obs
     record = {
-        **episode_outcome(seed, info, truncated, steps, t0),
+        **episode_outcome(episode),
         **{k: to_json(info[k]) for k in FORCE_KEYS},
     }
     # task metrics: scalars and short vectors (e.g. per-finger max/mean forces); the per-step contact
@@ -232,7 +224,7 @@ def rollout(
     if trace:
         record["trace"] = {
             "columns": list(TRACE_COLUMNS),
-            "rows": to_json(np.asarray(rows)),
+            "rows": to_json(np.asarray(episode.trace)),
             "environment_state": to_json(obs[layout.ENV_STATE]) if layout.ENV_STATE in obs else None,
             "environment_state_names": list(base.state_names.get(layout.ENV_STATE, ())),
         }
@@ -299,10 +291,10 @@ def evaluate_policy(
 def _match_control_rate(policy, task: str) -> None:
     """A forcemap skill fitted at another rate than the task's control rate (a real 50 fps demonstration
     in the 20 Hz sim) advances by the env's control period per step: ``control_fps`` is set, with a note."""
-    from lerobot_forcemap.envs.registration import task_entry
+    from lerobot_forcemap.envs.registration import task_spec
 
     cfg = policy.config
-    rate = task_entry(task).control_hz
+    rate = task_spec(task).control_hz
     if getattr(cfg, "type", None) != "forcemap" or cfg.control_fps is not None or abs(cfg.fps - rate) < 1e-9:
         return
     cfg.control_fps = rate

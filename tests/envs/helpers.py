@@ -6,7 +6,7 @@ import numpy as np
 from gymnasium.utils.env_checker import check_env
 
 import lerobot_forcemap.envs as E
-from lerobot_forcemap.envs.demonstrators import make_demonstrator, run_episode
+from lerobot_forcemap.envs.demonstrators import make_demonstrator, run_demonstration
 
 
 def roll_demos(task: str, seeds, **env_kwargs) -> list[dict]:
@@ -17,18 +17,19 @@ def roll_demos(task: str, seeds, **env_kwargs) -> list[dict]:
     out = []
     for seed in seeds:
         demo = make_demonstrator(task, np.random.default_rng(10_000 + seed), state_names=names)
-        frames, info = run_episode(env, demo, seed)
+        episode = run_demonstration(env, demo, seed)
+        frames = episode.trace
         record = {
             "seed": seed,
-            "info": info,
+            "info": episode.info,
             "n": len(frames),
-            "actions": np.array([f[1] for f in frames]),
-            "force": np.array([f[0]["force"] for f in frames]),
-            "phase": np.array([demo.phases[f[2]] for f in frames]),
+            "actions": np.array([f.action for f in frames]),
+            "force": np.array([f.obs["force"] for f in frames]),
+            "phase": np.array([demo.phases[f.phase_index] for f in frames]),
             "params": demo.describe(),
         }
-        if "finger_force" in frames[0][0]:
-            record["finger"] = np.array([f[0]["finger_force"] for f in frames]).reshape(len(frames), 3, 3)
+        if "finger_force" in frames[0].obs:
+            record["finger"] = np.array([f.obs["finger_force"] for f in frames]).reshape(len(frames), 3, 3)
         out.append(record)
     env.close()
     return out

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from lerobot_forcemap.envs.control import SpeedLimit, Workspace, clip_target, interpolate_targets
-from lerobot_forcemap.envs.sensing import ForceStats, LowPass, Payload, quat_to_mat
+from lerobot_forcemap.envs.sensing import ForceStats, LowPass, Payload
 from lerobot_forcemap.geometry import quat_multiply, quat_to_matrix, quat_to_rotvec, rotvec_to_quat
 
 WS = Workspace(low=(0.0, -0.5, -0.1), high=(1.0, 0.5, 0.5))
@@ -75,7 +75,6 @@ def test_payload_wrench_at_any_orientation():
     f_world = np.einsum("nij,nj->ni", R, w[:, :3])
     np.testing.assert_allclose(f_world, np.tile([0, 0, 1.2 * 9.81], (10, 1)), atol=1e-12)
     np.testing.assert_allclose(w[:, 3:], np.cross(payload.com_site, w[:, :3]), atol=1e-12)
-    np.testing.assert_allclose(quat_to_mat(q), R, atol=1e-12)
 
 
 def test_force_stats():

@@ -9,7 +9,7 @@ from lerobot_forcemap.envs.demonstrators import (
     SmoothNoise,
     make_demonstrator,
     min_jerk,
-    run_episode,
+    run_demonstration,
 )
 from lerobot_forcemap.envs.tasks.erase import ERASE_FORCE, EraseTask
 from lerobot_forcemap.envs.tasks.press import PressTask
@@ -72,8 +72,9 @@ def test_the_demonstrator_draws_its_noise_from_its_own_generator(task):
     names = env.unwrapped.state_names["environment_state"]
     actions = []
     for seed in (1, 2, 1):
-        frames, _ = run_episode(env, make_demonstrator(task, seed, state_names=names), 0, max_steps=30)
-        actions.append(np.array([f[1] for f in frames]))
+        episode = run_demonstration(env, make_demonstrator(task, seed, state_names=names), 0, max_steps=30)
+        assert episode.steps == 30
+        actions.append(np.array([f.action for f in episode.trace]))
     env.close()
     np.testing.assert_array_equal(actions[0], actions[2])
     assert np.abs(actions[0] - actions[1]).max() > 1e-3
@@ -82,7 +83,7 @@ def test_the_demonstrator_draws_its_noise_from_its_own_generator(task):
 @pytest.mark.parametrize("rng", [None, 1.5, "0", True])
 def test_a_demonstrator_needs_a_generator_or_a_seed(rng):
     # None used to draw OS entropy: a demonstration nobody could record again
-    with pytest.raises(ValueError, match="rng: a numpy Generator or an int seed, got"):
+    with pytest.raises(ValueError, match="rng: must be a numpy Generator or an int seed, got"):
         make_demonstrator("press", rng)
 
 

@@ -13,15 +13,13 @@ from .conftest import TASK_NAMES
 from .helpers import assert_seed_determinism, check_task_env
 
 
-def test_gym_ids_registered_with_task_lengths():
-    for name, entry in TASKS.items():
-        assert entry.gym_id in gym.registry
-        module, cls = entry.entry_point.split(":")
-        task_class = getattr(importlib.import_module(module), cls).task_class
-        assert task_class.name == name
-        assert task_class.max_episode_steps == entry.max_episode_steps
-        assert task_class.control_hz == entry.control_hz
-        assert gym.spec(entry.gym_id).max_episode_steps == entry.max_episode_steps
+def test_gym_ids_registered_from_the_task_specs():
+    for name, spec in TASKS.items():
+        assert spec.name == name and spec.gym_id in gym.registry
+        module, cls = spec.entry_point.split(":")
+        assert getattr(importlib.import_module(module), cls).task_class.spec is spec
+        assert gym.spec(spec.gym_id).max_episode_steps == spec.max_episode_steps
+        assert gym.spec(spec.gym_id).entry_point == spec.entry_point
     assert {"lerobot_forcemap/Press-v0", "lerobot_forcemap/Erase-v0", "lerobot_forcemap/PegInHole-v0"} <= set(
         gym.registry
     )
@@ -57,33 +55,71 @@ def test_observation_layout_matches_state_names():
 def test_bad_actions_and_options_raise():
     env = E.make("press")
     obs, _ = env.reset(seed=0)
-    with pytest.raises(ValueError, match=r"action must have shape \(8,\) .* got \(7,\)"):
+    with pytest.raises(ValueError, match=r"action: must have shape \(8,\) .* got shape \(7,\)"):
         env.step(np.zeros(7))
     a = np.concatenate([obs["ee_pose"], [1.0]])
     for shape in [(2, 4), (8, 1), (1, 8)]:  # eight numbers, but not an action: not flattened silently
-        with pytest.raises(ValueError, match=rf"action must have shape \(8,\).*got {re.escape(str(shape))}"):
+        with pytest.raises(
+            ValueError, match=rf"action: must have shape \(8,\).*got shape {re.escape(str(shape))}"
+        ):
             env.step(a.reshape(shape))
     a[2] = np.nan
-    with pytest.raises(ValueError, match=r"non-finite values at indices \[2\]"):
+    with pytest.raises(ValueError, match=r"action\[2\]: must be a finite number .*\(step 0\), got nan"):
         env.step(a)
     with pytest.raises(ValueError, match="unknown options"):
         env.reset(seed=0, options={"bogus": 1})
     env.reset(seed=0, options={"lerobot_new_rollout": True})  # LeRobot's rollout option is accepted
     for size in (0, -5, 2.5, True, 20000):  # True gave 1-pixel images, 20000 a MuJoCo error at reset
-        with pytest.raises(ValueError, match=r"image_size must be a number of pixels in \[1, 4096\]"):
+        with pytest.raises(ValueError, match=r"image_size: must be an integer >= 1 and <= 4096, got"):
             E.make("press", obs_type="pixels_state", image_size=size)
-    with pytest.raises(ValueError, match="randomize must be True or False, got 'no'"):
+    with pytest.raises(ValueError, match="randomize: must be true or false, got 'no'"):
         E.make("press", randomize="no")  # a truthy string: it randomised
     for cutoff in (float("nan"), 0.0, -1.0, float("inf"), True, "10"):
         # NaN used to pass: NaN forces, no protective stop, max_contact_force 0
-        with pytest.raises(ValueError, match="force_cutoff_hz must be a positive finite frequency"):
+        with pytest.raises(ValueError, match="force_cutoff_hz: must be a finite number > 0 Hz, got"):
             E.make("press", force_cutoff_hz=cutoff)
+
+
+def test_an_action_beyond_the_magnitude_bound_is_refused_naming_its_entry():
+    """An entry of magnitude >= 1e300 made info["clip_distance"] inf; an action is refused like a NaN
+    beyond MAX_ACTION_MAGNITUDE (1e6), and the largest accepted one keeps every clip report finite."""
+    env = E.make("press")
+    obs, _ = env.reset(seed=0)
+    a = np.concatenate([obs["ee_pose"], [1.0]]).astype(float)
+    for i, value in ((0, 1e300), (2, -1e300), (4, 1e7), (7, np.inf)):
+        bad = a.copy()
+        bad[i] = value
+        with pytest.raises(
+            ValueError,
+            match=rf"action\[{i}\]: must be a finite number of magnitude <= 1e\+06 \(step 0\), got",
+        ):
+            env.step(bad)
+    edge = a.copy()
+    edge[:3] = [-1e6, 1e6, -1e6]
+    edge[3:7] = [1e6, -1e6, 1e6, 1e6]
+    _, _, _, _, info = env.step(edge)
+    assert info["clip_workspace"] and np.isfinite(info["clip_distance"]) and np.isfinite(info["clip_angle"])
+    assert info["clip_distance"] > 1e6
+    env.close()
+
+
+def test_an_object_for_a_task_without_objects_is_a_value_error_naming_object():
+    """gym.make(press, object=...) was a bare TypeError (an unexpected keyword argument)."""
+    with pytest.raises(
+        ValueError,
+        match=r"^object: must be None: task 'press' has no objects \(tasks with objects: grasp_push, "
+        r"grasp_flip\), got 'apple'$",
+    ):
+        gym.make("lerobot_forcemap/Press-v0", object="apple")
+    env = gym.make("lerobot_forcemap/Press-v0", object=None)  # None: no object chosen
+    assert env.unwrapped.object_name is None
+    env.close()
 
 
 def test_settle_seconds_must_be_a_finite_non_negative_duration():
     # -1 used to become the 2-step minimum silently; NaN crashed in int() with numpy's message
     for settle in (float("nan"), -1.0, float("inf"), True, "0.3", None):
-        with pytest.raises(ValueError, match=r"settle_seconds must be a finite duration >= 0 \(s\), got"):
+        with pytest.raises(ValueError, match=r"settle_seconds: must be a finite number >= 0 s, got"):
             E.make("press", settle_seconds=settle)
     env = E.make("press", settle_seconds=0)  # 0: the shortest settle the reset needs (2 physics steps)
     assert env.unwrapped.settle_steps == 2

@@ -4,7 +4,7 @@ and the same demonstrator on the unseen objects."""
 import numpy as np
 import pytest
 
-from lerobot_forcemap.envs.registration import task_entry
+from lerobot_forcemap.envs.registration import task_spec
 from lerobot_forcemap.envs.tasks.grasping import GRASP_OBJECTS, GraspTask
 
 from .helpers import roll_demos
@@ -38,7 +38,7 @@ def test_demonstrator_succeeds_in_19_of_20_seeds_on_the_demonstration_object(tas
     assert not any(r["info"]["protective_stop"] for r in runs)
     assert all(r["info"]["n_clipped_steps"] == 0 for r in runs)  # demonstrations stay inside the limits
     assert all(r["info"]["pregrasp_done"] for r in successes)  # pushed upright / flipped first
-    assert max(r["n"] for r in runs) < task_entry(task).max_episode_steps - 20  # time to spare
+    assert max(r["n"] for r in runs) < task_spec(task).max_episode_steps - 20  # time to spare
 
 
 @pytest.mark.parametrize("task", sorted(DEMO_OBJECTS))

@@ -41,14 +41,16 @@ def test_offset_and_validation():
     pol = HybridForcePositionPolicy(DEMO)
     pol.reset(offset=[0.01, 0, 0])
     assert pol.act(obs(0.0))[0] == pytest.approx(0.51)
-    with pytest.raises(ValueError, match=r"demo_actions must have shape \(T, 8\) with T >= 1, got \(5, 7\)"):
+    with pytest.raises(ValueError, match=r"demo_actions: must have shape \(any, 8\), got shape \(5, 7\)"):
         HybridForcePositionPolicy(np.zeros((5, 7)))
     bad = DEMO.copy()
     bad[3, 0] = np.nan
-    with pytest.raises(ValueError, match="step 3"):
+    with pytest.raises(
+        ValueError, match=r"demo_actions: must hold finite values only .* at step 3, column 0\)"
+    ):
         HybridForcePositionPolicy(bad)
     for normal in ((0, 0, 0), (0, 0, np.nan), (0, 1)):  # a zero normal would never engage force control
-        with pytest.raises(ValueError, match="normal must be a finite non-zero 3-vector"):
+        with pytest.raises(ValueError, match="HybridConfig.normal: must be a finite non-zero 3-vector"):
             HybridConfig(normal=normal)
     bad_settings = {
         "force_threshold": (np.nan, 0.0, -1.0, np.inf),
@@ -60,7 +62,7 @@ def test_offset_and_validation():
     }
     for name, values in bad_settings.items():
         for value in values:
-            with pytest.raises(ValueError, match=f"HybridConfig.{name} must be"):
+            with pytest.raises(ValueError, match=f"HybridConfig.{name}: must be a finite number"):
                 HybridConfig(**{name: value})
     HybridConfig(
         force_threshold=np.float32(3.0), integral_gain=0, release_fraction=0

@@ -66,7 +66,7 @@ def test_record_cli_and_overwrite_guard(tmp_path):
         main(["record", "--task", "peg_in_hole", "--episodes", "1", "--seed", "5", "--out", str(out)])
     before = _tree(out)
     # a mistake found while setting up leaves the existing dataset as it was, even with --overwrite
-    with pytest.raises(ValueError, match="object: task 'peg_in_hole' has no objects"):
+    with pytest.raises(ValueError, match="object: must be None: task 'peg_in_hole' has no objects"):
         main(
             [
                 "record",
@@ -81,7 +81,9 @@ def test_record_cli_and_overwrite_guard(tmp_path):
                 "apple",
             ]
         )
-    with pytest.raises(ValueError, match=r"max_attempts \(--max-attempts\) must be >= episodes \(2\), got 1"):
+    with pytest.raises(
+        ValueError, match=r"max_attempts \(--max-attempts\): must be an integer >= episodes \(2\), got 1"
+    ):
         main(
             [
                 "record",
@@ -169,10 +171,10 @@ def test_a_negative_seed_is_named_as_the_flag_before_any_work(tmp_path, capsys):
     from lerobot_forcemap.cli import main
 
     out = tmp_path / "neg"
-    with pytest.raises(ValueError, match=r"^seed \(--seed\) must be a non-negative integer, got -1$"):
+    with pytest.raises(ValueError, match=r"^seed \(--seed\): must be an integer >= 0, got -1$"):
         main(["record", "--task", "press", "--episodes", "1", "--seed", "-1", "--out", str(out)])
     assert not out.exists() and not list(tmp_path.iterdir())
-    with pytest.raises(ValueError, match=r"^episodes \(--episodes\) must be >= 1, got 0$"):
+    with pytest.raises(ValueError, match=r"^episodes \(--episodes\): must be an integer >= 1, got 0$"):
         main(["record", "--task", "press", "--episodes", "0", "--out", str(out)])
     with pytest.raises(ValueError, match=r"^repo_id \(--repo-id\) must be 'owner/name', got 'press demos'$"):
         main(["record", "--task", "press", "--episodes", "1", "--repo-id", "press demos", "--out", str(out)])

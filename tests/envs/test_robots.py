@@ -76,5 +76,5 @@ def test_ik_reaches_a_tool_down_pose():
 
 
 def test_unknown_robot_is_a_clear_error():
-    with pytest.raises(ValueError, match="unknown robot"):
+    with pytest.raises(ValueError, match=r"robot: must be one of \[.*'ur5e'.*\], got 'gen9000'$"):
         get_robot("gen9000")

@@ -192,7 +192,7 @@ def test_cli_eval_on_an_unseen_object(tmp_path, capsys):
     assert doc["object"] == "apple" and doc["episodes"][0]["success"]
     assert "grasp_push (apple): success 100% of 1" in capsys.readouterr().out
     assert {d["object"] for d in doc["demonstrations"]["episodes"]} == {"book"}  # what it is compared with
-    with pytest.raises(ValueError, match="--object: task 'press' has no objects"):
+    with pytest.raises(ValueError, match="--object: must be None: task 'press' has no objects"):
         main(
             [
                 "eval",

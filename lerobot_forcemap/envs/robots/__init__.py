@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..._validation import check_choice
 from .base import (
     ENV_CONAFFINITY,
     ENV_CONTYPE,
@@ -27,12 +28,10 @@ def register_robot(robot: RobotSpec) -> RobotSpec:
 
 
 def get_robot(name: str) -> RobotSpec:
+    """The registered robot ``name`` (``ValueError`` naming ``robot`` for an unknown one)."""
     if name not in _REGISTRY:
         _load_builtin()
-    try:
-        return _REGISTRY[name]
-    except KeyError:
-        raise ValueError(f"unknown robot {name!r}; registered: {sorted(_REGISTRY)}") from None
+    return _REGISTRY[check_choice("robot", name, _REGISTRY)]
 
 
 def _load_builtin() -> None:

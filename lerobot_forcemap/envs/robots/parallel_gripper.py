@@ -32,11 +32,35 @@ PAD_FRICTION = (1.5, 0.02, 0.002)
 
 
 def build_parallel_gripper(tool: ToolBuilder | None = None) -> mujoco.MjSpec:
+    """The gripper spec (contract in ``robots/base.py``): palm, two coupled fingers, one actuator, ``tcp``."""
     spec = mujoco.MjSpec()
     spec.modelname = "parallel_gripper"
     spec.compiler.autolimits = True
     spec.compiler.degree = False
     base = spec.worldbody.add_body(name="base", gravcomp=1.0)
+    _add_palm(base)
+    for side, sign in (("left", -1.0), ("right", 1.0)):
+        _add_finger(base, side, sign)
+    spec.add_equality(
+        type=mujoco.mjtEq.mjEQ_JOINT,
+        name="coupling",
+        name1="right_slide",
+        name2="left_slide",
+        data=[0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+    )
+    act = spec.add_actuator(name="actuator", target="left_slide", trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    act.set_to_position(kp=GRIP_KP, kv=40.0)
+    act.ctrlrange = [0.0, STROKE]
+    act.forcerange = [-GRIP_FORCE, GRIP_FORCE]
+    act.ctrllimited = 1
+    act.forcelimited = 1
+    base.add_site(name="tcp", pos=[0, 0, TCP_Z], size=[0.004, 0, 0], rgba=[1, 0.2, 0.2, 1], group=4)
+    if tool is not None:
+        tool(spec)
+    return spec
+
+
+def _add_palm(base: mujoco.MjsBody) -> None:
     base.add_geom(
         name="palm",
         type=mujoco.mjtGeom.mjGEOM_CYLINDER,
@@ -57,47 +81,31 @@ def build_parallel_gripper(tool: ToolBuilder | None = None) -> mujoco.MjSpec:
         contype=ROBOT_CONTYPE,
         conaffinity=ROBOT_CONAFFINITY,
     )
-    for side, sign in (("left", -1.0), ("right", 1.0)):
-        finger = base.add_body(
-            name=f"{side}_finger", pos=[sign * OPEN_HALF_WIDTH, 0, PALM_LENGTH], gravcomp=1.0
-        )
-        finger.add_joint(
-            name=f"{side}_slide",
-            type=mujoco.mjtJoint.mjJNT_SLIDE,
-            axis=[-sign, 0, 0],
-            range=[0.0, STROKE],
-            armature=0.01,
-            damping=5.0,
-        )
-        finger.add_geom(
-            name=f"{side}_pad",
-            type=mujoco.mjtGeom.mjGEOM_BOX,
-            size=list(FINGER_HALF),
-            pos=[sign * FINGER_HALF[0], 0, FINGER_HALF[2]],
-            mass=0.08,
-            friction=list(PAD_FRICTION),
-            condim=4,
-            rgba=DARK_RGBA,
-            contype=ROBOT_CONTYPE,
-            conaffinity=ROBOT_CONAFFINITY,
-        )
-    spec.add_equality(
-        type=mujoco.mjtEq.mjEQ_JOINT,
-        name="coupling",
-        name1="right_slide",
-        name2="left_slide",
-        data=[0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+
+
+def _add_finger(base: mujoco.MjsBody, side: str, sign: float) -> None:
+    """One finger on its slide (``sign`` -1 left, +1 right of the centre), open at reset."""
+    finger = base.add_body(name=f"{side}_finger", pos=[sign * OPEN_HALF_WIDTH, 0, PALM_LENGTH], gravcomp=1.0)
+    finger.add_joint(
+        name=f"{side}_slide",
+        type=mujoco.mjtJoint.mjJNT_SLIDE,
+        axis=[-sign, 0, 0],
+        range=[0.0, STROKE],
+        armature=0.01,
+        damping=5.0,
     )
-    act = spec.add_actuator(name="actuator", target="left_slide", trntype=mujoco.mjtTrn.mjTRN_JOINT)
-    act.set_to_position(kp=GRIP_KP, kv=40.0)
-    act.ctrlrange = [0.0, STROKE]
-    act.forcerange = [-GRIP_FORCE, GRIP_FORCE]
-    act.ctrllimited = 1
-    act.forcelimited = 1
-    base.add_site(name="tcp", pos=[0, 0, TCP_Z], size=[0.004, 0, 0], rgba=[1, 0.2, 0.2, 1], group=4)
-    if tool is not None:
-        tool(spec)
-    return spec
+    finger.add_geom(
+        name=f"{side}_pad",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=list(FINGER_HALF),
+        pos=[sign * FINGER_HALF[0], 0, FINGER_HALF[2]],
+        mass=0.08,
+        friction=list(PAD_FRICTION),
+        condim=4,
+        rgba=DARK_RGBA,
+        contype=ROBOT_CONTYPE,
+        conaffinity=ROBOT_CONAFFINITY,
+    )
 
 
 def parallel_gripper_opening(qpos: np.ndarray) -> np.ndarray:

@@ -80,6 +80,8 @@ def _root(finger: str) -> tuple[list[float], list[float]]:
 
 
 def build_three_finger_gripper(tool: ToolBuilder | None = None) -> mujoco.MjSpec:
+    """The gripper spec (contract in ``robots/base.py``): palm, three fingers on one tendon, fingertip
+    sensors, one actuator, ``tcp``."""
     spec = mujoco.MjSpec()
     spec.modelname = "three_finger_gripper"
     spec.compiler.autolimits = True
@@ -91,45 +93,8 @@ def build_three_finger_gripper(tool: ToolBuilder | None = None) -> mujoco.MjSpec
         contype=ROBOT_CONTYPE, conaffinity=ROBOT_CONAFFINITY,
     )  # fmt: skip
     tendon = spec.add_tendon(name="closing")
-    for k, finger in enumerate(FINGERS):
-        scale = 2.0 if finger == "thumb" else 1.0
-        pos, quat = _root(finger)
-        prox = base.add_body(name=f"{finger}_proximal", pos=pos, quat=quat, gravcomp=1.0)
-        prox.add_joint(
-            name=PROXIMAL_JOINTS[k], type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0], range=[0.0, Q_MAX],
-            armature=scale * JOINT_ARMATURE, damping=scale * JOINT_DAMPING, stiffness=scale * JOINT_SPRING,
-        )  # fmt: skip
-        prox.add_geom(
-            name=f"{finger}_proximal", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-            fromto=[0, 0, 0, 0, 0, PROXIMAL_LENGTH], size=[0.011, 0, 0], mass=PROXIMAL_MASS,
-            rgba=ROBOT_RGBA, contype=ROBOT_CONTYPE, conaffinity=ROBOT_CONAFFINITY,
-        )  # fmt: skip
-        dist = prox.add_body(name=DISTAL_BODIES[k], pos=[0, 0, PROXIMAL_LENGTH], gravcomp=1.0)
-        dist.add_joint(
-            name=DISTAL_JOINTS[k], type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0],
-            range=[0.0, DISTAL_RATIO * Q_MAX], armature=scale * JOINT_ARMATURE / 2,
-            damping=scale * JOINT_DAMPING / 2,
-        )  # fmt: skip
-        dist.add_geom(
-            name=f"{finger}_distal", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-            fromto=[0, 0, 0, 0, 0, DISTAL_LENGTH], size=[0.0095, 0, 0], mass=DISTAL_MASS * 0.6,
-            rgba=ROBOT_RGBA, contype=ROBOT_CONTYPE, conaffinity=ROBOT_CONAFFINITY,
-        )  # fmt: skip
-        dist.add_geom(
-            name=f"{finger}_pad", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[PAD_RADIUS, 0, 0],
-            pos=[0, 0, DISTAL_LENGTH], mass=DISTAL_MASS * 0.4, friction=list(PAD_FRICTION), condim=4,
-            rgba=DARK_RGBA, contype=ROBOT_CONTYPE, conaffinity=ROBOT_CONAFFINITY,
-        )  # fmt: skip
-        dist.add_site(name=f"{finger}_tip", pos=[0, 0, DISTAL_LENGTH], size=[0.004, 0, 0], group=4)
-        spec.add_equality(
-            type=mujoco.mjtEq.mjEQ_JOINT, name=f"{finger}_curl", name1=DISTAL_JOINTS[k],
-            name2=PROXIMAL_JOINTS[k], data=[0, DISTAL_RATIO, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
-        )  # fmt: skip
-        tendon.wrap_joint(PROXIMAL_JOINTS[k], TENDON_COEF[k])
-        spec.add_sensor(
-            name=SENSOR_NAMES[k], type=mujoco.mjtSensor.mjSENS_CONTACT, objtype=mujoco.mjtObj.mjOBJ_BODY,
-            objname=DISTAL_BODIES[k], intprm=[2, 3, 1],  # data: force; reduce: netforce; 1 slot
-        )  # fmt: skip
+    for k in range(len(FINGERS)):
+        _add_finger(spec, base, tendon, k)
     act = spec.add_actuator(name="actuator", target="closing", trntype=mujoco.mjtTrn.mjTRN_TENDON)
     act.set_to_position(kp=TENDON_KP, kv=TENDON_KV)
     act.ctrlrange = [0.0, TENDON_TARGET_MAX]
@@ -140,6 +105,50 @@ def build_three_finger_gripper(tool: ToolBuilder | None = None) -> mujoco.MjSpec
     if tool is not None:
         tool(spec)
     return spec
+
+
+def _add_finger(spec: mujoco.MjSpec, base: mujoco.MjsBody, tendon: mujoco.MjsTendon, k: int) -> None:
+    """Finger ``FINGERS[k]``: proximal and distal links with their joints, pad, tip site, curl coupling,
+    its share of the closing tendon and its fingertip contact sensor."""
+    finger = FINGERS[k]
+    scale = 2.0 if finger == "thumb" else 1.0
+    pos, quat = _root(finger)
+    prox = base.add_body(name=f"{finger}_proximal", pos=pos, quat=quat, gravcomp=1.0)
+    prox.add_joint(
+        name=PROXIMAL_JOINTS[k], type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0], range=[0.0, Q_MAX],
+        armature=scale * JOINT_ARMATURE, damping=scale * JOINT_DAMPING, stiffness=scale * JOINT_SPRING,
+    )  # fmt: skip
+    prox.add_geom(
+        name=f"{finger}_proximal", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+        fromto=[0, 0, 0, 0, 0, PROXIMAL_LENGTH], size=[0.011, 0, 0], mass=PROXIMAL_MASS,
+        rgba=ROBOT_RGBA, contype=ROBOT_CONTYPE, conaffinity=ROBOT_CONAFFINITY,
+    )  # fmt: skip
+    dist = prox.add_body(name=DISTAL_BODIES[k], pos=[0, 0, PROXIMAL_LENGTH], gravcomp=1.0)
+    dist.add_joint(
+        name=DISTAL_JOINTS[k], type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0],
+        range=[0.0, DISTAL_RATIO * Q_MAX], armature=scale * JOINT_ARMATURE / 2,
+        damping=scale * JOINT_DAMPING / 2,
+    )  # fmt: skip
+    dist.add_geom(
+        name=f"{finger}_distal", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+        fromto=[0, 0, 0, 0, 0, DISTAL_LENGTH], size=[0.0095, 0, 0], mass=DISTAL_MASS * 0.6,
+        rgba=ROBOT_RGBA, contype=ROBOT_CONTYPE, conaffinity=ROBOT_CONAFFINITY,
+    )  # fmt: skip
+    dist.add_geom(
+        name=f"{finger}_pad", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[PAD_RADIUS, 0, 0],
+        pos=[0, 0, DISTAL_LENGTH], mass=DISTAL_MASS * 0.4, friction=list(PAD_FRICTION), condim=4,
+        rgba=DARK_RGBA, contype=ROBOT_CONTYPE, conaffinity=ROBOT_CONAFFINITY,
+    )  # fmt: skip
+    dist.add_site(name=f"{finger}_tip", pos=[0, 0, DISTAL_LENGTH], size=[0.004, 0, 0], group=4)
+    spec.add_equality(
+        type=mujoco.mjtEq.mjEQ_JOINT, name=f"{finger}_curl", name1=DISTAL_JOINTS[k],
+        name2=PROXIMAL_JOINTS[k], data=[0, DISTAL_RATIO, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+    )  # fmt: skip
+    tendon.wrap_joint(PROXIMAL_JOINTS[k], TENDON_COEF[k])
+    spec.add_sensor(
+        name=SENSOR_NAMES[k], type=mujoco.mjtSensor.mjSENS_CONTACT, objtype=mujoco.mjtObj.mjOBJ_BODY,
+        objname=DISTAL_BODIES[k], intprm=[2, 3, 1],  # data: force; reduce: netforce; 1 slot
+    )  # fmt: skip
 
 
 def three_finger_opening(qpos: np.ndarray) -> np.ndarray:

@@ -1,5 +1,2 @@
-"""Tasks: one module per task, each a ``ForceTask`` subclass plus its gym env class (see ``base.py``).
-
-Modules are imported by gym's entry points (``registration.py``), not here, so that importing the
-package stays cheap.
-"""
+"""Tasks: one module per task, each holding its ``SPEC`` (a ``TaskSpec``), its ``ForceTask`` subclass and
+its gym env class (see ``base.py``). ``envs/registration.py`` lists the modules and reads the specs."""

@@ -1,10 +1,10 @@
-"""The task interface: what a task adds to the shared scene / env machinery.
+"""The task interface: a :class:`TaskSpec` (what the rest of the project knows about a task) and a
+:class:`ForceTask` (what the task adds to the shared scene and env machinery).
 
-A task is a small class that builds its objects, randomises them at reset, reports its privileged
-environment state and decides success. Everything else (robot, controller, sensing, protective stop,
-observations, rendering, seeding) is the base env's (``envs/base_env.py``). To add a task: subclass
-:class:`ForceTask`, fill the class attributes, implement the abstract methods, subclass
-``ForceTaskEnv`` with ``task_class = YourTask`` and register a gym id in ``envs/registration.py``.
+A task file (``tasks/press.py`` ...) holds the task's ``SPEC``, its ``ForceTask`` subclass (objects,
+randomisation at reset, privileged environment state, success test) and its gym env class. Everything
+else (robot, controller, sensing, protective stop, observations, rendering, seeding) is the base
+env's (``envs/base_env.py``). ``docs/envs.md`` has the recipe for adding a task.
 """
 
 from __future__ import annotations
@@ -16,9 +16,67 @@ from typing import ClassVar
 import mujoco
 import numpy as np
 
+from ..._validation import fail
 from ..control import SpeedLimit, Workspace
 from ..robots import ImpedanceGains, RobotSpec, ToolBuilder
 from ..scene import BaseFrame, ContactMonitor, SceneIndex
+
+#: gym namespace of the tasks: ``lerobot_forcemap/<TaskSpec.env_id>``
+NAMESPACE = "lerobot_forcemap"
+
+
+@dataclass(frozen=True)
+class TaskSpec:
+    """One task as the rest of the project sees it; everything else about the task derives from it.
+
+    ``name``: the task's name in ``make``, ``forcemap record/eval`` and the experiments (``"press"``);
+    ``env_id``: gym id ``lerobot_forcemap/<env_id>`` and LeRobot's ``--env.task`` (``"Press-v0"``);
+    ``entry_point``: ``"module:EnvClass"`` of its gym env; ``description``: the task string (LeRobot's
+    ``task_description``, the datasets' task); ``max_episode_steps``: the time limit in control steps;
+    ``anchor``: the object a demonstration is re-anchored to (the prefix of its ``environment_state``
+    names, e.g. ``button`` for ``button_x ...``); ``demonstrator``: ``"module:Class"`` of its scripted
+    demonstrator; ``robot``: the default of the ``robot=`` env kwarg; ``control_hz``: control rate
+    (= dataset fps); ``objects``: the names ``object=`` accepts, the first being the default (the
+    demonstration object); empty for a task without a choice of object.
+    """
+
+    name: str
+    env_id: str
+    entry_point: str
+    description: str
+    max_episode_steps: int
+    anchor: str
+    demonstrator: str
+    robot: str = "ur5e"
+    control_hz: float = 20.0
+    objects: tuple[str, ...] = ()
+
+    @property
+    def gym_id(self) -> str:
+        return f"{NAMESPACE}/{self.env_id}"
+
+    @property
+    def env_type(self) -> str:
+        """The LeRobot env type (``--env.type``) of the task."""
+        return f"forcemap_{self.name}"
+
+    @property
+    def default_object(self) -> str | None:
+        return self.objects[0] if self.objects else None
+
+    def check_object(self, value: object, name: str = "object") -> str | None:
+        """``value`` if it is one of :attr:`objects` or None; else ``ValueError`` naming ``name`` (and, for a
+        task without objects, the tasks that have some)."""
+        if value is None:
+            return None
+        if not self.objects:
+            from ..registration import TASKS
+
+            takers = ", ".join(s.name for s in TASKS.values() if s.objects)
+            fail(name, f"be None: task {self.name!r} has no objects (tasks with objects: {takers})", value)
+        if not isinstance(value, str) or value not in self.objects:
+            fail(name, f"be one of {list(self.objects)} (the objects of {self.name})", value)
+        return value
 
 
 @dataclass(frozen=True)
@@ -58,11 +116,7 @@ class TaskStatus:
 class ForceTask(abc.ABC):
     """One task. Class attributes document the task; instances hold per-model ids and per-episode state."""
 
-    name: ClassVar[str]
-    description: ClassVar[str]  # natural-language task string (LeRobot's task_description)
-    robot_name: ClassVar[str] = "ur5e"
-    control_hz: ClassVar[float] = 20.0
-    max_episode_steps: ClassVar[int]
+    spec: ClassVar[TaskSpec]
     force_limit: ClassVar[float]  # N: protective stop on the filtered summed contact force
     finger_force_limit: ClassVar[float | None] = None  # N per fingertip (grippers with finger sensors)
     workspace: ClassVar[Workspace]

@@ -20,13 +20,22 @@ from typing import ClassVar
 import mujoco
 import numpy as np
 
-from ...geometry import quat_rotate
+from ...geometry import quat_rotate, quat_to_matrix
 from ..control import Workspace
 from ..robots import ENV_CONAFFINITY, ENV_CONTYPE, ROBOT_CONAFFINITY, ROBOT_CONTYPE
 from ..robots.parallel_gripper import PALM_LENGTH
 from ..scene import ContactMonitor
-from ..sensing import quat_to_mat
-from .base import ForceTask, StartState, StepBlock, TaskStatus
+from .base import ForceTask, StartState, StepBlock, TaskSpec, TaskStatus
+
+SPEC = TaskSpec(
+    name="erase",
+    env_id="Erase-v0",
+    entry_point="lerobot_forcemap.envs.tasks.erase:EraseEnv",
+    description="Wipe the blue S off the whiteboard with the eraser.",
+    max_episode_steps=600,  # 30 s at 20 Hz
+    anchor="board",
+    demonstrator="lerobot_forcemap.envs.demonstrators.erase:EraseDemonstrator",
+)
 
 BOARD_NOMINAL_XY = (0.5, 0.0)
 BOARD_RANDOM_XY = 0.02
@@ -114,9 +123,7 @@ def _eraser_tool(gripper: mujoco.MjSpec) -> None:
 
 
 class EraseTask(ForceTask):
-    name: ClassVar[str] = "erase"
-    description: ClassVar[str] = "Wipe the blue S off the whiteboard with the eraser."
-    max_episode_steps: ClassVar[int] = 600  # 30 s at 20 Hz
+    spec: ClassVar[TaskSpec] = SPEC
     force_limit: ClassVar[float] = 60.0
     workspace: ClassVar[Workspace] = Workspace(low=(0.25, -0.3, -0.08), high=(0.8, 0.3, 0.45))
     state_names: ClassVar[tuple[str, ...]] = (
@@ -227,7 +234,7 @@ class EraseTask(ForceTask):
         if pressing.any():
             rows = sd[pressing]
             felt_pos = rows[:, self._felt_pos]
-            rot = quat_to_mat(rows[:, self._felt_quat])
+            rot = quat_to_matrix(rows[:, self._felt_quat])
             # ink in each felt frame: R^T (ink - p), shapes (k, N_INK, 3)
             rel = self._ink_world[None, :, :] - felt_pos[:, None, :]
             local = np.einsum("kji,knj->kni", rot, rel)

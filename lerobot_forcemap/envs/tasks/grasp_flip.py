@@ -20,7 +20,20 @@ from typing import ClassVar
 import numpy as np
 
 from ..base_env import ForceTaskEnv
+from .base import TaskSpec
 from .grasping import GraspTask, yaw_quat
+
+SPEC = TaskSpec(
+    name="grasp_flip",
+    env_id="GraspFlip-v0",
+    entry_point="lerobot_forcemap.envs.tasks.grasp_flip:GraspFlipEnv",
+    description="Flip the carton over onto its side, then grasp it and lift it.",
+    max_episode_steps=400,  # 20 s at 20 Hz
+    anchor="obj",
+    demonstrator="lerobot_forcemap.envs.demonstrators.grasp_flip:GraspFlipDemonstrator",
+    robot="gen3",
+    objects=("carton", "apple", "banana"),
+)
 
 OBJECT_NOMINAL_XY = (0.48, -0.06)
 OBJECT_RANDOM_XY = 0.02
@@ -29,11 +42,7 @@ FLIPPED_ANGLE = np.deg2rad(15.0)
 
 
 class GraspFlipTask(GraspTask):
-    name: ClassVar[str] = "grasp_flip"
-    description: ClassVar[str] = "Flip the carton over onto its side, then grasp it and lift it."
-    max_episode_steps: ClassVar[int] = 400  # 20 s at 20 Hz
-    demo_object: ClassVar[str] = "carton"
-    objects: ClassVar[tuple[str, ...]] = ("carton", "apple", "banana")
+    spec: ClassVar[TaskSpec] = SPEC
     pregrasp_name: ClassVar[str] = "flipped"
     state_names: ClassVar[tuple[str, ...]] = GraspTask.object_state_names
 
@@ -50,13 +59,6 @@ class GraspFlipTask(GraspTask):
 
 
 class GraspFlipEnv(ForceTaskEnv):
-    """``lerobot_forcemap/GraspFlip-v0``; ``object=`` one of ``GraspFlipTask.objects`` (default ``carton``)."""
+    """``lerobot_forcemap/GraspFlip-v0``; ``object=`` one of ``SPEC.objects`` (default ``carton``)."""
 
     task_class = GraspFlipTask
-
-    def __init__(self, *, object: str = GraspFlipTask.demo_object, **kwargs):  # noqa: A002 - the public kwarg name
-        self.object_name = object
-        super().__init__(**kwargs)
-
-    def task_options(self) -> dict:
-        return {"object_name": self.object_name}

@@ -26,7 +26,20 @@ import numpy as np
 
 from ..base_env import ForceTaskEnv
 from ..robots import ENV_CONAFFINITY, ENV_CONTYPE
+from .base import TaskSpec
 from .grasping import GRASP_OBJECTS, GraspTask, yaw_quat
+
+SPEC = TaskSpec(
+    name="grasp_push",
+    env_id="GraspPush-v0",
+    entry_point="lerobot_forcemap.envs.tasks.grasp_push:GraspPushEnv",
+    description="Push the book upright against the wall, then grasp it and lift it.",
+    max_episode_steps=500,  # 25 s at 20 Hz
+    anchor="obj",
+    demonstrator="lerobot_forcemap.envs.demonstrators.grasp_push:GraspPushDemonstrator",
+    robot="gen3",
+    objects=("book", "apple", "banana"),
+)
 
 WALL_NOMINAL_X = 0.60
 WALL_RANDOM_X = 0.01
@@ -40,11 +53,7 @@ UPRIGHT_ANGLE = np.deg2rad(15.0)
 
 
 class GraspPushTask(GraspTask):
-    name: ClassVar[str] = "grasp_push"
-    description: ClassVar[str] = "Push the book upright against the wall, then grasp it and lift it."
-    max_episode_steps: ClassVar[int] = 500  # 25 s at 20 Hz
-    demo_object: ClassVar[str] = "book"
-    objects: ClassVar[tuple[str, ...]] = ("book", "apple", "banana")
+    spec: ClassVar[TaskSpec] = SPEC
     pregrasp_name: ClassVar[str] = "upright"
     fixture_bodies: ClassVar[tuple[str, ...]] = ("wall",)
     state_names: ClassVar[tuple[str, ...]] = (*GraspTask.object_state_names, "wall_x", "wall_y", "wall_z")
@@ -85,13 +94,6 @@ class GraspPushTask(GraspTask):
 
 
 class GraspPushEnv(ForceTaskEnv):
-    """``lerobot_forcemap/GraspPush-v0``; ``object=`` one of ``GraspPushTask.objects`` (default ``book``)."""
+    """``lerobot_forcemap/GraspPush-v0``; ``object=`` one of ``SPEC.objects`` (default ``book``)."""
 
     task_class = GraspPushTask
-
-    def __init__(self, *, object: str = GraspPushTask.demo_object, **kwargs):  # noqa: A002 - the public kwarg name
-        self.object_name = object
-        super().__init__(**kwargs)
-
-    def task_options(self) -> dict:
-        return {"object_name": self.object_name}

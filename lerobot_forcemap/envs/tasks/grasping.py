@@ -1,7 +1,8 @@
 """Shared machinery of the Kinova Gen3 grasping tasks (``grasp_push``, ``grasp_flip``; paper §IV-C).
 
-A grasping task has one free object on the table, chosen by the env kwarg ``object=`` from
-:data:`GRASP_OBJECTS`: the task's demonstration object, or an unseen one (``apple``, ``banana``).
+A grasping task has one free object on the table, chosen by the env kwarg ``object=`` among its
+``TaskSpec.objects`` (definitions in :data:`GRASP_OBJECTS`): the task's demonstration object (the
+first), or an unseen one (``apple``, ``banana``).
 The robot first manipulates the object into a graspable pose (push it upright against a wall, or flip
 it over), then grasps it with the three-finger hand and lifts it.
 
@@ -165,17 +166,14 @@ def yaw_quat(yaw: float) -> np.ndarray:
 class GraspTask(ForceTask):
     """Base of the grasping tasks: object choice and placement, lift-and-hold success, state, metrics.
 
-    Subclasses set ``demo_object``, ``objects`` (accepted names), and implement
-    :meth:`initial_object_pose` (centre xy and orientation on the table), :meth:`pregrasp_achieved`
+    Subclasses set ``spec`` (its ``objects``: the accepted names, the demonstration object first), and
+    implement :meth:`initial_object_pose` (centre xy and orientation on the table), :meth:`pregrasp_achieved`
     and optionally fixtures (:meth:`add_fixtures`, :attr:`fixture_bodies`, :meth:`fixture_state`).
     """
 
-    robot_name: ClassVar[str] = "gen3"
     force_limit: ClassVar[float] = 60.0
     finger_force_limit: ClassVar[float | None] = 40.0
     workspace: ClassVar[Workspace] = Workspace(low=(0.2, -0.35, 0.0), high=(0.75, 0.35, 0.5))
-    demo_object: ClassVar[str]
-    objects: ClassVar[tuple[str, ...]]
     pregrasp_name: ClassVar[str]  # e.g. "upright"
     fixture_bodies: ClassVar[tuple[str, ...]] = ()
     object_state_names: ClassVar[tuple[str, ...]] = (
@@ -188,12 +186,9 @@ class GraspTask(ForceTask):
     )
 
     def __init__(self, robot, *, randomize: bool = True, object_name: str | None = None):
+        """``object_name``: one of ``spec.objects`` (checked by the env), None for the demonstration object."""
         super().__init__(robot, randomize=randomize)
-        # only None means "the demo object": `or` also turned "" into it
-        name = self.demo_object if object_name is None else object_name
-        if name not in self.objects:
-            raise ValueError(f"{self.name}: unknown object {name!r}; choose one of {list(self.objects)}")
-        self.obj = GRASP_OBJECTS[name]
+        self.obj = GRASP_OBJECTS[self.spec.default_object if object_name is None else object_name]
 
     # ---- building ------------------------------------------------------------------------------
     def contacts(self) -> ContactMonitor:

@@ -25,7 +25,17 @@ from ..control import Workspace
 from ..robots import ENV_CONAFFINITY, ENV_CONTYPE
 from ..robots.parallel_gripper import OPEN_HALF_WIDTH, STROKE
 from ..scene import ContactMonitor
-from .base import ForceTask, StartState, StepBlock, TaskStatus
+from .base import ForceTask, StartState, StepBlock, TaskSpec, TaskStatus
+
+SPEC = TaskSpec(
+    name="peg_in_hole",
+    env_id="PegInHole-v0",
+    entry_point="lerobot_forcemap.envs.tasks.peg_in_hole:PegInHoleEnv",
+    description="Put the disc onto the peg and let go of it.",
+    max_episode_steps=400,  # 20 s at 20 Hz
+    anchor="peg",
+    demonstrator="lerobot_forcemap.envs.demonstrators.peg_in_hole:PegInHoleDemonstrator",
+)
 
 PEG_NOMINAL_XY = (0.5, 0.0)
 PEG_RANDOM_XY = 0.02
@@ -65,9 +75,7 @@ def ring_box_geoms() -> list[tuple[list[float], list[float], list[float]]]:
 
 
 class PegInHoleTask(ForceTask):
-    name: ClassVar[str] = "peg_in_hole"
-    description: ClassVar[str] = "Put the disc onto the peg and let go of it."
-    max_episode_steps: ClassVar[int] = 400  # 20 s at 20 Hz
+    spec: ClassVar[TaskSpec] = SPEC
     force_limit: ClassVar[float] = 80.0
     workspace: ClassVar[Workspace] = Workspace(low=(0.25, -0.3, -0.05), high=(0.75, 0.3, 0.45))
     state_names: ClassVar[tuple[str, ...]] = (

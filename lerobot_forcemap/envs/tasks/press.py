@@ -21,7 +21,17 @@ import numpy as np
 from ..control import Workspace
 from ..robots import ENV_CONAFFINITY, ENV_CONTYPE
 from ..scene import ContactMonitor
-from .base import ForceTask, StartState, StepBlock, TaskStatus
+from .base import ForceTask, StartState, StepBlock, TaskSpec, TaskStatus
+
+SPEC = TaskSpec(
+    name="press",
+    env_id="Press-v0",
+    entry_point="lerobot_forcemap.envs.tasks.press:PressEnv",
+    description="Press the red button until it clicks, then let go.",
+    max_episode_steps=200,  # 10 s at 20 Hz
+    anchor="button",
+    demonstrator="lerobot_forcemap.envs.demonstrators.press:PressDemonstrator",
+)
 
 BUTTON_NOMINAL_XY = (0.5, 0.0)
 BUTTON_RANDOM_XY = 0.02  # m, uniform +-
@@ -43,9 +53,7 @@ CAP_PRESSED_RGBA = np.array([0.1, 0.75, 0.2, 1.0])
 
 
 class PressTask(ForceTask):
-    name: ClassVar[str] = "press"
-    description: ClassVar[str] = "Press the red button until it clicks, then let go."
-    max_episode_steps: ClassVar[int] = 200  # 10 s at 20 Hz
+    spec: ClassVar[TaskSpec] = SPEC
     force_limit: ClassVar[float] = 100.0
     workspace: ClassVar[Workspace] = Workspace(low=(0.25, -0.3, -0.1), high=(0.75, 0.3, 0.45))
     state_names: ClassVar[tuple[str, ...]] = (
@@ -156,7 +164,7 @@ class PressTask(ForceTask):
         }
 
 
-# The gym entry point (registered as lerobot_forcemap/Press-v0 in envs/registration.py).
+# The gym entry point (SPEC.entry_point).
 from ..base_env import ForceTaskEnv  # noqa: E402
 
 
