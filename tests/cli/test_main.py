@@ -79,9 +79,9 @@ def test_a_bad_fit_setting_is_one_line_naming_the_field(tmp_path, capsys, monkey
     assert cli(["fit", "--dataset", str(dataset), "--out", str(tmp_path / "o"), "--set", "stiffness=-5"]) == 2
     err = capsys.readouterr().err
     # one line naming the flag it came from; the config's log line (for lerobot-train) is not repeated
-    assert err.startswith("forcemap fit: error: --set: ForceMapConfig.stiffness: must be > 0, got -5.0\n"), (
-        err
-    )
+    assert err.startswith(
+        "forcemap fit: error: --set: ForceMapConfig.stiffness: must be a finite number > 0 N/m, got -5.0\n"
+    ), err
     assert cli(["fit", "--dataset", str(dataset), "--out", str(tmp_path / "o"), "--episodes", "-1"]) == 2
     assert capsys.readouterr().err.startswith("forcemap fit: error: --episodes: ForceMapConfig.episodes:")
 
