@@ -76,9 +76,8 @@ def _bench(args, dataset: Path, tmp: Path, t_import: float) -> int:
     from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
 
     from lerobot_forcemap.cli.fit import fit_policy, make_config
-    from lerobot_forcemap.skill.episodes import load_episodes
     from lerobot_forcemap.skill.fit import fit_skill
-    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy, load_episodes
 
     repo_id = f"local/{dataset.resolve().name}"
     info = json.loads((dataset / "meta" / "info.json").read_text())
@@ -110,7 +109,10 @@ def _bench(args, dataset: Path, tmp: Path, t_import: float) -> int:
     meta_ms, _ = median_ms(lambda: LeRobotDatasetMetadata(repo_id, root=dataset), args.runs, "metadata")
     episodes, features, fps, _tasks = loaded
     names = list(features.get("observation.environment_state", {}).get("names") or []) or None
-    fit_ms, (skill, report) = median_ms(lambda: fit_skill(episodes, cfg, fps, names), args.runs, "fit_skill")
+    params = cfg.skill_params()
+    fit_ms, (skill, report) = median_ms(
+        lambda: fit_skill(episodes, params, fps, names), args.runs, "fit_skill"
+    )
     policy = res.policy
     save_ms, _ = median_ms(lambda: policy.save_pretrained(tmp / "save"), args.runs, "save_pretrained")
     assert isinstance(policy, ForceMapPolicy)

@@ -30,19 +30,20 @@ def phase_hits(dataset: Path, overrides: list[str]) -> tuple[list[tuple[str, str
     from experiments.paper.jobs import demo_phase_switches, segmentation_score
     from lerobot_forcemap.cli.fit import make_config
     from lerobot_forcemap.envs.demonstrators import DEMONSTRATORS
-    from lerobot_forcemap.skill.episodes import load_episodes
     from lerobot_forcemap.skill.fit import segment_episode, segmentation_config
+    from lerobot_policy_forcemap.modeling_forcemap import load_episodes
 
     switches = demo_phase_switches(dataset)
     if not switches:
         raise ValueError(f"--datasets {dataset}: no demo_phase column (record it with `forcemap record`)")
     cfg = make_config(sorted(switches), overrides)
     episodes, _, fps, tasks = load_episodes(f"local/{dataset.name}", str(dataset), cfg)
-    window = segmentation_config(cfg, fps).window
+    params = cfg.skill_params()
+    window = segmentation_config(params, fps).window
     fits = [
         {
             "demo": ep.episode,
-            "changepoints": segment_episode(ep, cfg, fps).tolist(),
+            "changepoints": segment_episode(ep, params, fps).tolist(),
             "segmentation_window_frames": window,
         }
         for ep in episodes

@@ -15,7 +15,7 @@ Pure Python and NumPy: no LeRobot, torch or MuJoCo.
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Iterable
+from collections.abc import Callable, Collection, Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +36,8 @@ __all__ = [
     "check_finite",
     "first_bad_index",
     "check_path",
+    "check_dict",
+    "check_fields",
 ]
 
 #: what a ``repr`` of a bad value is cut to in messages (a whole array would bury the message)
@@ -275,3 +277,29 @@ def check_path(name: str, path: object, *, kind: str = "any", must_exist: bool =
         if kind == "dir" and not p.is_dir():
             fail(name, "be a folder", str(p))
     return p
+
+
+#: a check of one value: ``rule(name, value)`` raises ``ValueError`` naming ``name`` (e.g. a
+#: ``functools.partial`` of :func:`check_real` with its bounds)
+Rule = Callable[[str, object], object]
+
+
+def check_dict(
+    name: str, value: object, *, keys: Collection[Any] | None = None, values: Rule | None = None
+) -> dict:
+    """``value`` as a ``dict`` whose keys are among ``keys`` (when given) and whose entries pass
+    ``values(f"{name}[{key!r}]", entry)`` (when given)."""
+    if not isinstance(value, Mapping):
+        fail(name, "be a mapping (a JSON object)", value)
+    for key, entry in value.items():
+        if keys is not None:
+            check_choice(f"{name} key", key, keys)
+        if values is not None:
+            values(f"{name}[{key!r}]", entry)
+    return dict(value)
+
+
+def check_fields(owner: str, obj: object, rules: Mapping[str, Rule]) -> None:
+    """Check the attributes of ``obj`` by a table ``{attribute: rule}``, each named ``<owner>.<attribute>``."""
+    for attribute, rule in rules.items():
+        rule(f"{owner}.{attribute}", getattr(obj, attribute))

@@ -1,4 +1,4 @@
-"""LeRobot policy plugin `forcemap` (discovered by LeRobot through the distribution name, SPEC §5).
+"""LeRobot policy plugin `forcemap` (discovered by LeRobot through the distribution name).
 
 Importing this package registers the ``forcemap`` policy config (``ForceMapConfig``) and also the env
 types of `lerobot_env_forcemap`, which LeRobot's plugin discovery would not import on its own (it

@@ -1,24 +1,22 @@
 """``ForceMapPolicy``: a LeRobot policy that reproduces one (or a few) demonstrations with
-force-constrained elastic maps (paper §III; SPEC §5).
+force-constrained elastic maps (paper §III).
 
 Closed-form "training" (LeRobot 0.6.1, ``scripts/lerobot_train.py``): ``make_policy`` builds the
 policy with ``dataset_meta``; the constructor then reads the chosen episodes, segments them and fits
-the maps (``fitting.py``), fills the fitted sizes into the config and keeps the result as float64
-persistent buffers, which ``save_pretrained`` writes to ``model.safetensors``. ``lerobot-train
---policy.type=forcemap --steps=1`` therefore fits and saves a checkpoint; the optimiser sees one
-dummy parameter with learning rate 0. Loading (``from_pretrained``, ``lerobot-eval --policy.path``)
-builds the buffers from the config's fitted sizes and checks the file before reading it.
+the maps (``lerobot_forcemap.skill.fit``), fills the fitted sizes into the config and keeps the result
+as float64 persistent buffers, which ``save_pretrained`` writes to ``model.safetensors``.
+``lerobot-train --policy.type=forcemap --steps=1`` therefore fits and saves a checkpoint; the
+optimiser sees one dummy parameter with learning rate 0. Loading (``from_pretrained``,
+``lerobot-eval --policy.path``) builds the buffers from the config's fitted sizes and checks the
+files first (``checkpoint.py``).
 
 Acting: ``reset`` forgets the episode; the first ``select_action`` after it places the skill in the
 scene of its observation (robot pose ``observation.ee_pose``, object poses from
-``observation.environment_state``; ``anchoring.py``), one placement per batch element. Each call
-returns the ``[x y z qw qx qy qz gripper]`` target at t = k / fps (k-th call; fps of the dataset, which
-is the env's control rate, or ``control_fps`` for an env stepping at another rate) and advances k; after
-the last segment the final pose is held.
-With ``reanchor_online`` the first call at or after the start of an object-anchored segment
-re-anchors that segment to the object's position in that call's observation
-(``anchoring.reanchor_segment``): objects that moved since reset (pushed, flipped, an unseen object
-that moved differently) are followed.
+``observation.environment_state``), one placement per batch row (``skill.placement.SkillRun``). Each
+call returns the ``[x y z qw qx qy qz gripper]`` target at t = k / ``clock_hz`` (k-th call) and
+advances k; after the last segment the final pose is held. With ``reanchor_online`` the first call at
+or after the start of an object-anchored segment re-anchors it to the object in that call's
+observation.
 """
 
 from __future__ import annotations
@@ -35,42 +33,45 @@ from huggingface_hub.constants import SAFETENSORS_SINGLE_FILE
 from lerobot.policies.pretrained import PreTrainedPolicy
 from torch import Tensor, nn
 
+from lerobot_forcemap._validation import check_array, fail
 from lerobot_forcemap.data.hub import check_repo_id
-from lerobot_forcemap.jsonfile import read_json_object
-from lerobot_forcemap.skill.episodes import load_episodes
+from lerobot_forcemap.data.reader import read_episodes
+from lerobot_forcemap.skill.episodes import EpisodeArrays, episodes_from_columns, needed_columns
 from lerobot_forcemap.skill.fit import FitReport, fit_skill
-from lerobot_forcemap.skill.model import FittedSkill, Reproduction
-from lerobot_forcemap.skill.placement import (
-    object_poses,
-    object_slots,
-    place_skill,
-    provisional_segments,
-    reanchor_segment,
-)
+from lerobot_forcemap.skill.model import FittedSkill
+from lerobot_forcemap.skill.params import SkillParams
+from lerobot_forcemap.skill.placement import SkillRun, object_poses, object_slots, path_distances
 from lerobot_policy_forcemap.checkpoint import (
     DUMMY_PARAMETER,
+    SKILL_TENSORS,
     check_processor_files,
     check_safetensors_file,
     check_skill_values,
     expected_tensors,
     fetch_hub_checkpoint,
+    read_config_json,
 )
 from lerobot_policy_forcemap.configuration_forcemap import RUNTIME_FIELDS, ForceMapConfig, config_error_detail
 
-__all__ = ["ForceMapPolicy"]
+__all__ = ["ForceMapPolicy", "SKILL_TENSORS", "load_episodes"]
 
 logger = logging.getLogger(__name__)
 
-SKILL_TENSORS = (
-    "nodes",
-    "node_times",
-    "orientations",
-    "gripper_nodes",
-    "gripper_node_times",
-    "durations",
-    "anchor_poses",
-    "anchor_initial_poses",
-)
+#: LeRobot's from_pretrained arguments that hf_hub_download takes
+_HUB_KWARGS = ("force_download", "token", "cache_dir", "local_files_only", "revision")
+
+
+def load_episodes(
+    repo_id: str, root: str | None, config: ForceMapConfig
+) -> tuple[list[EpisodeArrays], dict, float, list[str]]:
+    """Read ``config.episodes`` of a LeRobot dataset; returns (episodes, features, fps, the task
+    strings of those episodes)."""
+    params = config.skill_params()
+    data = read_episodes(
+        repo_id, root, config.episodes, needed_columns(params), name="ForceMapConfig.episodes"
+    )
+    episodes = episodes_from_columns(data.columns, data.features, params, config.episodes)
+    return episodes, data.features, data.fps, data.tasks
 
 
 class ForceMapPolicy(PreTrainedPolicy):
@@ -99,20 +100,11 @@ class ForceMapPolicy(PreTrainedPolicy):
         self._forward_calls = 0  # training steps seen: the second one says it changes nothing
         if dataset_meta is not None and config.pretrained_path is None:
             config.check_unfitted()
-            self.fit_dataset(
-                str(dataset_meta.repo_id), None if dataset_meta.root is None else str(dataset_meta.root)
-            )
+            root = None if dataset_meta.root is None else str(dataset_meta.root)
+            self.fit_dataset(str(dataset_meta.repo_id), root)
         else:
-            if dataset_meta is not None and config.dataset_tasks:
-                # `lerobot-train --policy.path=CKPT --dataset...`: a closed-form fit has nothing to fine-tune
-                # and the checkpoint's maps stay as they are, so another task's dataset is an error, not a no-op
-                tasks = sorted(str(t) for t in dataset_meta.tasks.index)
-                if not set(tasks) & set(config.dataset_tasks):
-                    raise ValueError(
-                        f"{config.pretrained_path}: fitted on demonstrations of {config.dataset_tasks}, but the "
-                        f"dataset {dataset_meta.root or dataset_meta.repo_id} holds {tasks}; to fit that dataset "
-                        "use --policy.type=forcemap instead of --policy.path (the fit is closed form)"
-                    )
+            if dataset_meta is not None:
+                _refuse_another_task(config, dataset_meta)
             self._register_skill_buffers(None)
         self.reset()
 
@@ -125,11 +117,11 @@ class ForceMapPolicy(PreTrainedPolicy):
         return self.fit_episodes(episodes, fps, names, tasks)
 
     def fit_episodes(
-        self, episodes: list, fps: float, env_state_names: list[str], tasks: Sequence[str] = ()
+        self, episodes: list[EpisodeArrays], fps: float, env_state_names: list[str], tasks: Sequence[str] = ()
     ) -> FitReport:
         """Fit from :class:`~lerobot_forcemap.skill.episodes.EpisodeArrays` (no LeRobot dataset needed);
         ``tasks``: their task strings (an env asking for another task is refused, ``check_task``)."""
-        skill, report = fit_skill(episodes, self.config, fps, env_state_names)
+        skill, report = fit_skill(episodes, self.params, fps, env_state_names)
         cfg = self.config
         cfg.fps = float(fps)
         cfg.n_segments = skill.n_segments
@@ -143,42 +135,29 @@ class ForceMapPolicy(PreTrainedPolicy):
         self.fit_report = report
         logger.info(
             "forcemap fit: episode(s) %s (--policy.episodes), %d segment(s), anchors %s, %.3f s",
-            [e.episode for e in episodes],
-            skill.n_segments,
-            skill.anchors,
-            report.seconds,
-        )
+            [e.episode for e in episodes], skill.n_segments, skill.anchors, report.seconds,
+        )  # fmt: skip
         return report
 
     def _register_skill_buffers(self, skill: FittedSkill | None) -> None:
         """Persistent float64 buffers with the shapes the config's fitted fields imply (zeros if unfitted)."""
         device = getattr(self, DUMMY_PARAMETER).device
         if skill is not None:
-            arrays = skill.flat_arrays()
-            for name in SKILL_TENSORS:
-                self.register_buffer(
-                    name, torch.from_numpy(np.ascontiguousarray(arrays[name])).to(device), persistent=True
-                )
+            for name, array in skill.flat_arrays().items():
+                tensor = torch.from_numpy(np.ascontiguousarray(array)).to(device)
+                self.register_buffer(name, tensor, persistent=True)
         else:
-            for name, (shape, _, _) in expected_tensors(self.config).items():
+            for name, (shape, _) in expected_tensors(self.config).items():
                 if name in SKILL_TENSORS:
-                    self.register_buffer(
-                        name, torch.zeros(shape, dtype=torch.float64, device=device), persistent=True
-                    )
+                    self.register_buffer(name, torch.zeros(shape, dtype=torch.float64, device=device))
             if self.config.is_fitted:
                 self.get_buffer("orientations")[:, 0] = 1.0  # unit quaternions until the weights arrive
         self._skill = skill
 
-    def load_state_dict(self, state_dict, strict: bool = True, assign: bool = False):  # noqa: D102
-        if self.config.is_fitted and all(name in state_dict for name in SKILL_TENSORS):
-            # the checks from_pretrained runs on the weights file, before they replace the buffers
-            arrays = {name: _to_numpy(state_dict[name], name) for name in SKILL_TENSORS}
-            # named after the weights file when from_pretrained loads one (safetensors calls this method)
-            check_skill_values(arrays, self.config, getattr(self, "_loading_from", None) or "load_state_dict")
-        result = super().load_state_dict(state_dict, strict=strict, assign=assign)
-        self._skill = None  # rebuilt from the new buffers on first use
-        self.reset()
-        return result
+    @property
+    def params(self) -> SkillParams:
+        """The settings of the fit and the placement (``config.skill_params()``)."""
+        return self.config.skill_params()
 
     @property
     def skill(self) -> FittedSkill:
@@ -189,15 +168,10 @@ class ForceMapPolicy(PreTrainedPolicy):
                 "--steps=1 ..., `forcemap fit`) or load a checkpoint (from_pretrained / --policy.path)"
             )
         if self._skill is None:
-            arrays = {
-                name: self.get_buffer(name).detach().cpu().numpy().astype(np.float64)
-                for name in SKILL_TENSORS
-            }
+            arrays = {name: self.get_buffer(name).detach().cpu().numpy() for name in SKILL_TENSORS}
+            cfg = self.config
             self._skill = FittedSkill.from_flat(
-                arrays,
-                self.config.segment_n_nodes,
-                self.config.segment_n_gripper_nodes,
-                self.config.segment_anchors,
+                arrays, cfg.segment_n_nodes, cfg.segment_n_gripper_nodes, cfg.segment_anchors
             )
         return self._skill
 
@@ -206,212 +180,55 @@ class ForceMapPolicy(PreTrainedPolicy):
     def from_pretrained(
         cls, pretrained_name_or_path: str | Path, *, config: ForceMapConfig | None = None, **kwargs
     ):  # noqa: D102
-        """LeRobot's loader with clear errors: the failing file and field are named."""
-        path = Path(str(pretrained_name_or_path))
-        from_hub = not path.is_dir()
-        if from_hub:
-            # a Hub repo id: fetch the files, then check them as a local folder is checked
-            _check_repo_id_shape(pretrained_name_or_path)
-            hub_kwargs = {k: kwargs[k] for k in _HUB_KWARGS if k in kwargs}
-            try:
-                path = pretrained_name_or_path = fetch_hub_checkpoint(
-                    str(pretrained_name_or_path), hub_kwargs
-                )
-            except ValueError as err:  # "outputs/polcy" reads as a repo id too: say the folder is missing
-                raise ValueError(f"{err} (and there is no local folder {str(path)!r})") from err
-        where = path / "config.json"
-        stored = _read_config(pretrained_name_or_path, where)
+        """LeRobot's loader, after the checks of ``checkpoint.py``: the failing file and field are named."""
+        folder = Path(str(pretrained_name_or_path))
+        from_hub = not folder.is_dir()
+        if from_hub:  # a Hub repo id: fetch the files, then check them as a local folder is checked
+            folder = _fetch(str(pretrained_name_or_path), {k: kwargs[k] for k in _HUB_KWARGS if k in kwargs})
+        where = folder / "config.json"
+        read_config_json(where)
+        try:
+            stored = ForceMapConfig.from_pretrained(folder)
+        except Exception as err:  # draccus' ParsingError/DecodingError, our own ValueErrors
+            raise ValueError(f"{where}: cannot read the policy config: {config_error_detail(err)}") from err
         if config is None:
             config = stored
-        elif isinstance(config, ForceMapConfig) and isinstance(stored, ForceMapConfig):
-            # `lerobot-eval/train --policy.path=CKPT --policy.stiffness=...`: LeRobot applies the flag to the
-            # config, but the maps were fitted with the stored value and are not refitted on load
-            _refuse_changed_fit_settings(config, stored, where)
         if not isinstance(config, ForceMapConfig):
             raise ValueError(
                 f"{where}: policy type {getattr(config, 'type', type(config).__name__)!r} is not 'forcemap'"
             )
+        # `lerobot-eval/train --policy.path=CKPT --policy.stiffness=...`: LeRobot applies the flag to the
+        # config, but the maps were fitted with the stored value and are not refitted on load
+        _refuse_changed_fit_settings(config, stored, where)
         config.validate_parameters()  # a config edited after it was built (its fields set one by one)
-        # the policy's buffers are allocated from config.json's node counts before LeRobot reads the weights:
-        # check the weights' header against them first, so a tampered count is an error, not a huge allocation
-        check_safetensors_file(path / SAFETENSORS_SINGLE_FILE, config)
-        # lerobot-eval reads these next, naming no file (a missing one from the Hub was reported by the fetch)
-        check_processor_files(path, required=False, warn_missing=not from_hub, raw_values=True)
-        return super().from_pretrained(pretrained_name_or_path, config=config, **kwargs)
+        # the buffers are sized from config.json before LeRobot reads the weights: their header first
+        check_safetensors_file(folder / SAFETENSORS_SINGLE_FILE, config)
+        check_processor_files(folder, required=False, warn_missing=not from_hub, raw_values=True)
+        return super().from_pretrained(folder, config=config, **kwargs)
 
     @classmethod
     def _load_as_safetensor(cls, model: ForceMapPolicy, model_file: str, map_location: str, strict: bool):
         from lerobot.utils.device_utils import resolve_safetensors_device
-        from safetensors.torch import load_model
+        from safetensors.torch import load_file
 
-        model._loading_from = str(model_file)
-        try:
-            load_model(model, model_file, strict=True, device=resolve_safetensors_device(map_location))
-        finally:
-            model._loading_from = None
-        arrays = {name: model.get_buffer(name).detach().cpu().numpy() for name in SKILL_TENSORS}
-        # the dummy's value is never used to act, but lerobot-train --policy.path would log its NaN loss
-        arrays[DUMMY_PARAMETER] = getattr(model, DUMMY_PARAMETER).detach().cpu().numpy()
-        check_skill_values(arrays, model.config, str(model_file))
+        state = load_file(model_file, device=resolve_safetensors_device(map_location))
+        model._load_checked(state, str(model_file), strict=True)
         return model
 
-    # ---- LeRobot interface -----------------------------------------------------------------------------
-    def get_optim_params(self) -> list[nn.Parameter]:
-        return [getattr(self, DUMMY_PARAMETER)]
+    def load_state_dict(self, state_dict, strict: bool = True, assign: bool = False):  # noqa: D102
+        return self._load_checked(state_dict, "load_state_dict", strict=strict, assign=assign)
 
-    def reset(self) -> None:
-        """Start a new episode: the next observation re-anchors the skill."""
-        self._step = 0
-        self._placed: list[Reproduction] | None = None
-        self._next_segment = 1  # the next segment whose start may re-anchor it (segment 0: at reset)
-        # per object: its demonstrated pose (7,) at its last observation (reset, or a re-anchoring)
-        self._observed_as: dict[str, np.ndarray] = {}
-        self._provisional: list[bool] = []
-        self.reanchor_log: list[dict[str, Any]] = []  # (segment, batch row, shift) of each re-anchoring
-
-    def place(self, batch: dict[str, Tensor]) -> list[Reproduction]:
-        """The skill placed in each batch element's scene (robot pose + object poses of the observation)."""
-        cfg, skill = self.config, self.skill
-        n = _batch_size(batch)
-        self._check_task(batch)
-        robot = _rows(batch, cfg.robot_pose_key, n) if cfg.reanchor else None
-        if robot is not None and robot.shape[1] != 7:
-            raise ValueError(
-                f"observation {cfg.robot_pose_key!r}: needs [x y z qw qx qy qz], got width {robot.shape[1]}"
+    def _load_checked(self, state_dict, source: str, *, strict: bool, assign: bool = False):
+        """``load_state_dict`` after checking the fitted values (named after ``source``)."""
+        if self.config.is_fitted and all(name in state_dict for name in SKILL_TENSORS):
+            names = [name for name in (*SKILL_TENSORS, DUMMY_PARAMETER) if name in state_dict]
+            check_skill_values(
+                {name: _to_numpy(state_dict[name], repr(name)) for name in names}, self.config, source
             )
-        # 1e-6, as the env's action check: a quaternion that small carries no orientation
-        if robot is not None and np.any(zero := np.linalg.norm(robot[:, 3:7], axis=1) < 1e-6):
-            raise ValueError(
-                f"observation {cfg.robot_pose_key!r}: zero quaternion (qw qx qy qz) at batch row {int(np.argmax(zero))}"
-            )
-        env = None
-        if cfg.reanchor and any(skill.anchors):
-            env = self._env_state_rows(batch, n)
-        slots = object_slots(cfg.env_state_names)
-        online = cfg.reanchor and cfg.reanchor_online
-        self._observed_as = skill.demo_object_poses()
-        self._provisional = (
-            provisional_segments(skill, self._observed_as, cfg.static_tolerance)
-            if online
-            else [False] * skill.n_segments
-        )
-        placed = []
-        for i in range(n):
-            poses = object_poses(env[i], slots) if env is not None else skill.demo_object_poses()
-            placed.append(
-                place_skill(
-                    skill,
-                    robot_pose=None if robot is None else robot[i, :7],
-                    object_pose=poses,
-                    params_for=cfg.segment_params,
-                    provisional=self._provisional,
-                )
-            )
-        return placed
-
-    def _check_task(self, batch: dict[str, Any]) -> None:
-        """An env that asks for a task the demonstrations were not recorded for is refused: its
-        environment_state holds another scene's objects, which a width check alone can miss (press
-        and erase both have 8 entries). ``batch["task"]``: one string per element (LeRobot's eval
-        fills it from the env's task_description)."""
-        cfg = self.config
-        asked = batch.get("task")
-        if asked is not None and not isinstance(asked, str) and len(asked) != (n := _batch_size(batch)):
-            raise ValueError(f"batch 'task' has {len(asked)} entries for a batch of {n}")
-        if not cfg.dataset_tasks or asked is None:
-            return
-        unknown = sorted(
-            {str(t) for t in ([asked] if isinstance(asked, str) else asked)} - set(cfg.dataset_tasks)
-        )
-        if unknown and not cfg.check_task:
-            if cfg.control_fps is None and not self._warned_clock:
-                # another env than the demonstrations': its control rate is unknown to the policy
-                warnings.warn(
-                    f"check_task=false: the env asks for task(s) {unknown}, not the demonstrations'; the skill "
-                    f"advances 1/{cfg.fps:g} s per select_action call (the dataset's fps). If this env steps at "
-                    "another rate, set control_fps to it (lerobot-eval --policy.control_fps=20 for the forcemap "
-                    "sim tasks), else the demonstration's timing is stretched",
-                    stacklevel=3,
-                )
-                self._warned_clock = True
-            return
-        if unknown:
-            raise ValueError(
-                f"the env asks for task(s) {unknown}, but this policy was fitted on demonstrations of "
-                f"{cfg.dataset_tasks} (environment_state {cfg.env_state_names}); evaluate it on that task, or "
-                "set check_task=false if the scene is the same under another name (lerobot-eval "
-                "--policy.check_task=false, or in the checkpoint's config.json)"
-            )
-
-    def _ensure_placed(self, batch: dict[str, Tensor]) -> list[Reproduction]:
-        n = _batch_size(batch)
-        if self._placed is None:
-            self._placed = self.place(batch)
-        elif len(self._placed) != n:
-            raise ValueError(
-                f"batch size changed from {len(self._placed)} to {n} within an episode; call reset() between episodes"
-            )
-        self._reanchor_started(batch, self._step / self.clock_hz)
-        return self._placed
-
-    @property
-    def clock_hz(self) -> float:
-        """Calls of ``select_action`` per second of the skill: ``control_fps``, else the dataset's fps."""
-        return float(self.config.control_fps or self.config.fps)
-
-    def _reanchor_started(self, batch: dict[str, Tensor], t: float) -> None:
-        """Re-anchor every object-anchored segment that has started by time ``t`` and was not checked
-        yet, to its object's position in this observation (``reanchor_online``)."""
-        cfg, skill = self.config, self.skill
-        placed = self._placed
-        current = placed[0].segment_at(t)
-        if not (cfg.reanchor and cfg.reanchor_online) or self._next_segment > current:
-            return
-        started = [s for s in range(self._next_segment, current + 1) if skill.segments[s].anchor]
-        if not started:
-            self._next_segment = current + 1
-            return
-        env = self._env_state_rows(batch, len(placed))
-        slots = object_slots(cfg.env_state_names)
-        poses = [object_poses(env[i], slots) for i in range(len(placed))]
-        # only now, with the observation accepted: a refused one (NaN, wrong width) retried with a good
-        # one must still re-anchor these segments
-        self._next_segment = current + 1
-        for s in started:
-            was_provisional = self._provisional[s]
-            obj = skill.segments[s].anchor
-            self._observed_as[obj] = np.asarray(skill.segments[s].anchor_pose, dtype=np.float64)
-            self._provisional = provisional_segments(
-                skill, self._observed_as, cfg.static_tolerance, started=s
-            )
-            for i in range(len(placed)):
-                position = poses[i][obj][:3]
-                shift = position - placed[i].segments[s].anchor_pose[:3]
-                if not was_provisional and float(np.linalg.norm(shift)) <= cfg.reanchor_tolerance:
-                    continue
-                placed[i] = reanchor_segment(
-                    placed[i],
-                    skill,
-                    s,
-                    position,
-                    params_for=cfg.segment_params,
-                    blend_s=cfg.reanchor_blend_s,
-                    provisional=self._provisional,
-                )
-                self.reanchor_log.append(
-                    {"segment": s, "row": i, "t": float(t), "shift": [float(v) for v in shift]}
-                )
-
-    def _env_state_rows(self, batch: dict[str, Any], n: int) -> np.ndarray:
-        """The object poses of the batch, (n, width), checked against the names the policy was fitted on."""
-        cfg = self.config
-        env = _rows(batch, cfg.env_state_key, n)
-        if env.shape[1] != len(cfg.env_state_names):
-            raise ValueError(
-                f"observation {cfg.env_state_key!r} has {env.shape[1]} entries, but the policy was fitted on "
-                f"{len(cfg.env_state_names)} ({cfg.env_state_names})"
-            )
-        return env
+        result = super().load_state_dict(state_dict, strict=strict, assign=assign)
+        self._skill = None  # rebuilt from the new buffers on first use
+        self.reset()
+        return result
 
     def _apply(self, fn, recurse: bool = True):
         """``.to(device)`` moves the maps; a dtype cast (``.half()``, ``.float()``) is undone for them:
@@ -424,24 +241,126 @@ class ForceMapPolicy(PreTrainedPolicy):
                 self._buffers[name] = before.to(device=after.device)
         return self
 
-    def _actions(self, placed: list[Reproduction], times: np.ndarray, like: Tensor) -> Tensor:
-        out = np.stack([rep.actions_at(times) for rep in placed])  # (B, K, 8)
-        return torch.as_tensor(out, dtype=torch.float32, device=like.device)
+    # ---- acting ----------------------------------------------------------------------------------------
+    def get_optim_params(self) -> list[nn.Parameter]:
+        return [getattr(self, DUMMY_PARAMETER)]
+
+    def reset(self) -> None:
+        """Start a new episode: the next observation places the skill."""
+        self._step = 0
+        self._run: SkillRun | None = None
+
+    @property
+    def reanchor_log(self) -> list[dict[str, Any]]:
+        """Segment, batch row, time and shift of each re-anchoring this episode."""
+        return [] if self._run is None else self._run.log
+
+    @property
+    def clock_hz(self) -> float:
+        """Calls of ``select_action`` per second of the skill: ``control_fps``, else the dataset's fps."""
+        return float(self.config.control_fps or self.config.fps)
 
     @torch.no_grad()
     def predict_action_chunk(self, batch: dict[str, Tensor], **kwargs: Any) -> Tensor:
         """The next ``chunk_size`` targets ``(B, chunk_size, 8)`` from the current time (does not advance it)."""
-        placed = self._ensure_placed(batch)
+        run = self._run_for(batch)
         times = (self._step + np.arange(self.config.chunk_size)) / self.clock_hz
-        return self._actions(placed, times, _any_tensor(batch))
+        return _tensor(run.actions_at(times), _any_tensor(batch))
 
     @torch.no_grad()
     def select_action(self, batch: dict[str, Tensor], **kwargs: Any) -> Tensor:
         """The target ``(B, 8)`` at t = k / clock_hz for the k-th call since ``reset``."""
-        placed = self._ensure_placed(batch)
-        action = self._actions(placed, np.array([self._step / self.clock_hz]), _any_tensor(batch))[:, 0]
+        run = self._run_for(batch)
+        action = _tensor(run.actions_at(np.array([self._step / self.clock_hz])), _any_tensor(batch))[:, 0]
         self._step += 1
         return action
+
+    def _run_for(self, batch: dict[str, Any]) -> SkillRun:
+        """This episode's run: placed on its first observation, re-anchored as its segments start."""
+        n = _batch_size(batch)
+        if self._run is None:
+            self._run = self._start(batch, n)
+        elif len(self._run.placed) != n:
+            raise ValueError(
+                f"batch size changed from {len(self._run.placed)} to {n} within an episode; call reset() between episodes"
+            )
+        t = self._step / self.clock_hz
+        if self._run.due(t):
+            # the observation is read first: a refused one (NaN, wrong width) retried with a good one
+            # still re-anchors these segments
+            self._run.reanchor(t, self._scenes(batch, n))
+        return self._run
+
+    def _start(self, batch: dict[str, Any], n: int) -> SkillRun:
+        """The skill placed in each batch row's scene (robot pose + object poses of the observation)."""
+        cfg, skill = self.config, self.skill
+        self._check_task(batch, n)
+        robot = _rows(batch, cfg.robot_pose_key, n) if cfg.reanchor else None
+        if robot is not None and robot.shape[1] != 7:
+            raise ValueError(
+                f"observation {cfg.robot_pose_key!r}: needs [x y z qw qx qy qz], got width {robot.shape[1]}"
+            )
+        # 1e-6, as the env's action check: a quaternion that small carries no orientation
+        if robot is not None and np.any(zero := np.linalg.norm(robot[:, 3:7], axis=1) < 1e-6):
+            raise ValueError(
+                f"observation {cfg.robot_pose_key!r}: zero quaternion (qw qx qy qz) at batch row {int(np.argmax(zero))}"
+            )
+        scenes = (
+            self._scenes(batch, n) if cfg.reanchor and any(skill.anchors) else [skill.demo_object_poses()] * n
+        )
+        return SkillRun.start(
+            skill,
+            self.params,
+            robot,
+            scenes,
+            online=cfg.reanchor and cfg.reanchor_online,
+            tolerance=cfg.reanchor_tolerance,
+            blend_s=cfg.reanchor_blend_s,
+        )
+
+    def _scenes(self, batch: dict[str, Any], n: int) -> list[dict[str, np.ndarray]]:
+        """Per batch row the object poses ``{object: (7,)}`` of the observed environment state."""
+        cfg = self.config
+        env = _rows(batch, cfg.env_state_key, n)
+        if env.shape[1] != len(cfg.env_state_names):
+            raise ValueError(
+                f"observation {cfg.env_state_key!r} has {env.shape[1]} entries, but the policy was fitted on "
+                f"{len(cfg.env_state_names)} ({cfg.env_state_names})"
+            )
+        slots = object_slots(cfg.env_state_names)
+        return [object_poses(row, slots) for row in env]
+
+    def _check_task(self, batch: dict[str, Any], n: int) -> None:
+        """An env that asks for a task the demonstrations were not recorded for is refused: its
+        environment_state holds another scene's objects, which a width check alone can miss (press
+        and erase both have 8 entries). ``batch["task"]``: one string per row (LeRobot's eval fills it
+        from the env's task_description), or one string."""
+        cfg, asked = self.config, batch.get("task")
+        if asked is None:
+            return
+        tasks = [asked] * n if isinstance(asked, str) else asked
+        if not (
+            isinstance(tasks, list | tuple) and len(tasks) == n and all(isinstance(t, str) for t in tasks)
+        ):
+            fail("batch 'task'", f"be a string, or a list of strings with one per batch row ({n})", asked)
+        unknown = sorted(set(tasks) - set(cfg.dataset_tasks)) if cfg.dataset_tasks else []
+        if unknown and cfg.check_task:
+            raise ValueError(
+                f"the env asks for task(s) {unknown}, but this policy was fitted on demonstrations of "
+                f"{cfg.dataset_tasks} (environment_state {cfg.env_state_names}); evaluate it on that task, or "
+                "set check_task=false if the scene is the same under another name (lerobot-eval "
+                "--policy.check_task=false, or in the checkpoint's config.json)"
+            )
+        if unknown and cfg.control_fps is None and not self._warned_clock:
+            # another env than the demonstrations': its control rate is unknown to the policy
+            warnings.warn(
+                f"check_task=false: the env asks for task(s) {unknown}, not the demonstrations'; the skill "
+                f"advances 1/{cfg.fps:g} s per select_action call (the dataset's fps). If this env steps at "
+                "another rate, set control_fps to it (lerobot-eval --policy.control_fps=20 for the forcemap "
+                "sim tasks), else the demonstration's timing is stretched",
+                stacklevel=4,
+            )
+            self._warned_clock = True
 
     def forward(self, batch: dict[str, Tensor], reduction: str = "mean") -> tuple[Tensor, dict]:
         """Diagnostic loss: distance (m) of the demonstrated target positions to the fitted path placed
@@ -469,18 +388,9 @@ class ForceMapPolicy(PreTrainedPolicy):
             raise ValueError(
                 f"forward: {cfg.pose_key!r} needs [x y z ...] per row, got {rows.shape[1]} entries"
             )
-        target = rows[:, :3]
-        env = None
-        if any(skill.anchors) and cfg.env_state_key in batch:
-            env = self._env_state_rows(batch, len(target))
-        slots = object_slots(cfg.env_state_names)
-        dist = np.empty(len(target))
-        for i, x in enumerate(target):
-            poses = object_poses(env[i], slots) if env is not None else skill.demo_object_poses()
-            path = place_skill(
-                skill, robot_pose=None, object_pose=poses, params_for=cfg.segment_params
-            ).path()
-            dist[i] = float(np.min(np.linalg.norm(path - x, axis=1)))
+        use_env = any(skill.anchors) and cfg.env_state_key in batch
+        scenes = self._scenes(batch, n) if use_env else [skill.demo_object_poses()] * n
+        dist = path_distances(skill, self.params, rows[:, :3], scenes)
         dummy = getattr(self, DUMMY_PARAMETER)
         per_sample = torch.as_tensor(dist, dtype=dummy.dtype, device=dummy.device) + 0.0 * dummy.sum()
         loss = per_sample if reduction == "none" else per_sample.mean()
@@ -490,27 +400,30 @@ class ForceMapPolicy(PreTrainedPolicy):
 # ---- helpers -------------------------------------------------------------------------------------------
 
 
-#: LeRobot's from_pretrained arguments that hf_hub_download takes (it has no proxies/resume_download now)
-_HUB_KWARGS = ("force_download", "token", "cache_dir", "local_files_only", "revision")
-
-
-def _read_config(pretrained_name_or_path: str | Path, where: object):
-    """The policy config stored in a checkpoint folder (a Hub checkpoint is fetched first), with clear errors."""
-    from lerobot.configs.policies import PreTrainedConfig
-
-    _check_config_json(Path(pretrained_name_or_path) / "config.json")
+def _fetch(name: str, hub_kwargs: dict) -> Path:
+    """The local folder of a Hub checkpoint ``owner/name`` (fetched into the cache)."""
     try:
-        return PreTrainedConfig.from_pretrained(pretrained_name_or_path)
-    except Exception as err:  # draccus' ParsingError/DecodingError, hub errors, our own ValueErrors
-        raise ValueError(f"{where}: cannot read the policy config: {config_error_detail(err)}") from err
-
-
-def _check_repo_id_shape(name: str | Path) -> None:
-    try:
-        check_repo_id(str(name))
-    except ValueError:
-        # not a folder and not a Hub repo id: LeRobot would say "Repo id must be in the form"
+        check_repo_id(name)
+    except ValueError:  # LeRobot would say "Repo id must be in the form"
         raise ValueError(f"{name}: no such checkpoint folder (nor a Hub repo id owner/name)") from None
+    try:
+        return fetch_hub_checkpoint(name, hub_kwargs)
+    except ValueError as err:  # "outputs/polcy" reads as a repo id too: say the folder is missing
+        raise ValueError(f"{err} (and there is no local folder {name!r})") from err
+
+
+def _refuse_another_task(config: ForceMapConfig, dataset_meta: Any) -> None:
+    """``lerobot-train --policy.path=CKPT --dataset...``: a closed-form fit has nothing to fine-tune and
+    the checkpoint's maps stay as they are, so another task's dataset is an error, not a no-op."""
+    if not config.dataset_tasks:
+        return
+    tasks = sorted(str(t) for t in dataset_meta.tasks.index)
+    if not set(tasks) & set(config.dataset_tasks):
+        raise ValueError(
+            f"{config.pretrained_path}: fitted on demonstrations of {config.dataset_tasks}, but the "
+            f"dataset {dataset_meta.root or dataset_meta.repo_id} holds {tasks}; to fit that dataset "
+            "use --policy.type=forcemap instead of --policy.path (the fit is closed form)"
+        )
 
 
 def _refuse_changed_fit_settings(config: ForceMapConfig, stored: ForceMapConfig, where: object) -> None:
@@ -525,33 +438,15 @@ def _refuse_changed_fit_settings(config: ForceMapConfig, stored: ForceMapConfig,
         )
 
 
-def _check_config_json(path: Path) -> None:
-    """Readable JSON object with a string 'type' (LeRobot's own reader reports neither file nor field)."""
-    if not path.is_file():
-        raise ValueError(f"{path}: file not found (a checkpoint folder needs config.json)")
-    data = read_json_object(path)
-    if data.get("type") != "forcemap":
-        raise ValueError(f"{path}: field 'type' is {data.get('type')!r}, expected 'forcemap'")
-    # Every setting the maps were fitted with must be stored: a missing one would be filled with today's
-    # default, so free segments re-solved at reset (and the task check) would silently differ from the fit.
-    required = (*ForceMapConfig.fitted_field_names(), *ForceMapConfig.fit_field_names())
-    for name in (*required, "input_features", "output_features"):
-        if name not in data:
-            raise ValueError(f"{path}: field {name!r} is missing (not a complete fitted forcemap checkpoint)")
-    for name in ("segment_n_nodes", "segment_n_gripper_nodes"):
-        if not isinstance(data[name], list) or not all(
-            isinstance(v, int) and not isinstance(v, bool) for v in data[name]
-        ):
-            raise ValueError(f"{path}: field {name!r} must be a list of integers, got {data[name]!r}")
-    if not isinstance(data["n_segments"], int) or isinstance(data["n_segments"], bool):
-        raise ValueError(f"{path}: field 'n_segments' must be an integer, got {data['n_segments']!r}")
-
-
 def _any_tensor(batch: dict[str, Any]) -> Tensor:
     for v in batch.values():
         if isinstance(v, Tensor):
             return v
     raise ValueError(f"batch has no tensors (keys: {sorted(batch)})")
+
+
+def _tensor(actions: np.ndarray, like: Tensor) -> Tensor:
+    return torch.as_tensor(actions, dtype=torch.float32, device=like.device)
 
 
 def _observation_rows(batch: dict[str, Any]) -> set[int]:
@@ -576,7 +471,7 @@ def _to_numpy(value: Any, key: str) -> np.ndarray:
     """A tensor or array as a NumPy array (bfloat16, which NumPy lacks, as float32; a 'meta' tensor holds no data)."""
     if isinstance(value, Tensor):
         if value.device.type == "meta":
-            raise ValueError(f"{key!r}: a tensor on the 'meta' device holds no values")
+            raise ValueError(f"{key}: a tensor on the 'meta' device holds no values")
         value = value.detach().cpu()
         if value.dtype == torch.bfloat16:
             value = value.to(torch.float32)
@@ -585,23 +480,14 @@ def _to_numpy(value: Any, key: str) -> np.ndarray:
 
 
 def _rows(batch: dict[str, Any], key: str, n: int) -> np.ndarray:
-    """``batch[key]`` as a float64 (n, width) array; a clear error when missing or non-finite."""
+    """``batch[key]`` as a float64 ``(n, width)`` array, finite (a 1-D one is one row: LeRobot batches
+    only some observations)."""
+    name = f"observation {key!r}"
     if key not in batch:
-        raise ValueError(
-            f"observation {key!r} is missing (keys: {sorted(k for k in batch if isinstance(k, str))})"
-        )
-    raw = _to_numpy(batch[key], f"observation {key}")
-    if raw.dtype.kind != "f" and raw.size:
-        # an integer pose was already rounded to whole metres by whoever built it
-        raise ValueError(f"observation {key!r}: expected floating-point values, got dtype {raw.dtype}")
-    if raw.ndim > 2:  # e.g. (batch, n_obs_steps, width): the policy reads one step
-        raise ValueError(f"observation {key!r}: expected shape (batch, width), got {tuple(raw.shape)}")
-    if raw.ndim <= 1 and n != 1:
-        raise ValueError(f"observation {key!r} has no batch dimension but the batch has {n} rows")
-    if raw.ndim == 2 and raw.shape[0] != n:  # reshape(n, -1) would silently merge or split rows
-        raise ValueError(f"observation {key!r} has {raw.shape[0]} rows but the batch has {n}")
-    a = raw.astype(np.float64).reshape(n, -1)
-    if not np.all(np.isfinite(a)):
-        row, col = np.argwhere(~np.isfinite(a))[0]
-        raise ValueError(f"observation {key!r}: non-finite value at batch row {row}, entry {col}")
-    return a
+        raise ValueError(f"{name} is missing (keys: {sorted(k for k in batch if isinstance(k, str))})")
+    raw = _to_numpy(batch[key], name)
+    if raw.dtype.kind != "f" and raw.size:  # an integer pose was already rounded to whole metres
+        fail(name, "hold floating-point values", raw.dtype)
+    return check_array(
+        name, raw[None] if raw.ndim == 1 else raw, shape=(n, None), axes=("batch row", "entry")
+    )

@@ -442,7 +442,7 @@ def fitted_checkpoint(job: Job, workdir: str | Path, *, force: bool = False) -> 
         # frames of the demonstration where its segments start (0 and T included), and the window they
         # were found with: scored against the demonstrator's phase switches (segmentation_score)
         "changepoints": [int(c) for c in report.changepoints[0]],
-        "segmentation_window_frames": segmentation_config(cfg, cfg.fps).window,
+        "segmentation_window_frames": segmentation_config(cfg.skill_params(), cfg.fps).window,
         "segments": to_json(rows),
         "n_force_limit_rows": int(sum(a.n_force_limit_rows for a in report.arm_fits)),
         "checkpoint": str(ckpt),
@@ -797,14 +797,15 @@ def auto_stream_weights(dataset: str | Path, episode: int, overrides: Sequence[s
     Streams the dataset lacks get weight 0. Returns ``{stream: weight}`` for ``stream_weights``."""
     from lerobot_forcemap.cli.fit import make_config
     from lerobot_forcemap.segmentation import auto_weights
-    from lerobot_forcemap.skill.episodes import load_episodes
     from lerobot_forcemap.skill.fit import episode_streams, segmentation_config
+    from lerobot_policy_forcemap.modeling_forcemap import load_episodes
 
     cfg = make_config([episode], overrides)
     root = Path(dataset)
     episodes, _, fps, _ = load_episodes(f"local/{root.name}", str(root), cfg)
-    streams = episode_streams(episodes[0], cfg)
-    weights = auto_weights(streams, segmentation_config(cfg, fps))
+    params = cfg.skill_params()
+    streams = episode_streams(episodes[0], params)
+    weights = auto_weights(streams, segmentation_config(params, fps))
     return {name: float(weights.get(name, 0.0)) for name in cfg.stream_weights}
 
 

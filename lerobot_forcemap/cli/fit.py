@@ -70,7 +70,7 @@ def make_config(episodes: Sequence[int] | None = None, overrides: Sequence[str] 
     except draccus.utils.DraccusException as err:
         cause = err.__cause__ or err.__context__
         # our check names "ForceMapConfig.<field>:" (its text is the whole story), draccus' type errors "`<field>`:"
-        ours = re.match(r"ForceMapConfig\.(\w+):", str(cause))
+        ours = re.match(r"ForceMapConfig\.(\w+)\W", str(cause))
         named = ours or re.match(r"`(\w+)`:", str(err))
         detail = str(cause) if ours else config_error_detail(err)
         if named is None:

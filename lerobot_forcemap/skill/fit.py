@@ -1,6 +1,6 @@
 """Demonstrations -> segments -> one arm map and one gripper map per segment (paper §III, §IV-C).
 
-1. Segment every chosen episode (``config.segments``): multimodal probabilistic segmentation of the
+1. Segment every chosen episode (``segments``): multimodal probabilistic segmentation of the
    position, wrist-force, joint, gripper and finger-force streams with the window scaled to the
    dataset fps; or the dataset's ``segment_index`` column; or one segment. Several episodes are
    aligned segment by segment, so their segment counts must agree.
@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,6 +39,7 @@ from lerobot_forcemap.segmentation import (
 )
 from lerobot_forcemap.skill.episodes import EpisodeArrays
 from lerobot_forcemap.skill.model import FittedSkill, SegmentMaps
+from lerobot_forcemap.skill.params import DEFAULT_STREAM_WEIGHTS, ArmMap, SegmentParams, SkillParams
 from lerobot_forcemap.skill.placement import (
     IDENTITY_POSE,
     ObjectSlot,
@@ -47,7 +48,6 @@ from lerobot_forcemap.skill.placement import (
     object_slots,
     to_object_frame,
 )
-from lerobot_policy_forcemap.configuration_forcemap import DEFAULT_STREAM_WEIGHTS, ForceMapConfig
 
 logger = logging.getLogger(__name__)
 
@@ -99,27 +99,28 @@ class FitReport:
         ]
 
 
-def segmentation_config(config: ForceMapConfig, fps: float) -> SegmentationConfig:
+def segmentation_config(params: SkillParams, fps: float) -> SegmentationConfig:
     """The segmentation settings with the window (and min_run, grace) scaled to ``fps``.
 
     The authors used window = min_run = 64 and grace = 4 samples at ~166 Hz; here the window is
     ``segmentation_window_s`` seconds (default 64/166 s), at least 5 samples (Savitzky–Golay order 4).
     """
-    window = max(5, int(round(config.segmentation_window_s * fps)))
+    seg = params.segmentation
+    window = max(5, int(round(seg.segmentation_window_s * fps)))
     grace = int(round(AUTHORS_GRACE * window / (AUTHORS_WINDOW_S * AUTHORS_RATE_HZ)))
-    min_len = None if config.min_segment_s is None else max(1, int(round(config.min_segment_s * fps)))
+    min_len = None if seg.min_segment_s is None else max(1, int(round(seg.min_segment_s * fps)))
     return SegmentationConfig(
         window=window,
         min_run=window,
         grace=grace,
-        mode=config.segmentation_mode,
-        changepoints=config.changepoints,
-        seed=int(config.segmentation_seed),
+        mode=seg.segmentation_mode,
+        changepoints=seg.changepoints,
+        seed=int(seg.segmentation_seed),
         min_segment_length=min_len,
     )
 
 
-#: the config field naming the dataset feature each segmentation stream reads
+#: the setting (``Columns`` field) naming the dataset feature each segmentation stream reads
 STREAM_FEATURE_FIELDS = {
     "position": "pose_key",
     "wrist_force": "force_key",
@@ -129,7 +130,7 @@ STREAM_FEATURE_FIELDS = {
 }
 
 
-def episode_streams(ep: EpisodeArrays, config: ForceMapConfig) -> list[Stream]:
+def episode_streams(ep: EpisodeArrays, params: SkillParams) -> list[Stream]:
     """Segmentation streams of one episode (those with a weight > 0 whose data the dataset has)."""
     sources = {
         "position": ep.pose[:, :3],
@@ -138,24 +139,25 @@ def episode_streams(ep: EpisodeArrays, config: ForceMapConfig) -> list[Stream]:
         "gripper": ep.gripper,
         "finger_force": ep.finger_force,
     }
+    seg = params.segmentation
     streams = []
     for name, values in sources.items():
-        weight = float(config.stream_weights[name])
+        weight = float(seg.stream_weights[name])
         if values is None and weight > 0 and weight != DEFAULT_STREAM_WEIGHTS[name]:
             # a default weight of a stream the dataset lacks is skipped quietly (one config serves every
             # task); a weight someone set is not
             logger.warning(
                 "episode %d: stream_weights[%r]=%g is set, but the dataset has no %r feature for it; that stream "
                 "is left out of the segmentation",
-                ep.episode, name, weight, getattr(config, STREAM_FEATURE_FIELDS[name]),
+                ep.episode, name, weight, getattr(params.columns, STREAM_FEATURE_FIELDS[name]),
             )  # fmt: skip
         if values is None or weight <= 0:
             continue
-        threshold = float(config.stream_thresholds[name])
+        threshold = float(seg.stream_thresholds[name])
         streams.append(Stream(name, values, ep.times, weight=weight, threshold=threshold))
     if not streams:
         raise ValueError(
-            f"ForceMapConfig.stream_weights={config.stream_weights}: no stream with a weight > 0 has data "
+            f"stream_weights={seg.stream_weights}: no stream with a weight > 0 has data "
             f"in episode {ep.episode}"
         )
     return streams
@@ -182,27 +184,28 @@ def _labels_to_changepoints(labels: NDArray[np.int64], episode: int, column: str
     return changepoints
 
 
-def segment_episode(ep: EpisodeArrays, config: ForceMapConfig, fps: float) -> NDArray[np.int64]:
+def segment_episode(ep: EpisodeArrays, params: SkillParams, fps: float) -> NDArray[np.int64]:
     """Changepoints (K+1,) of one episode: first 0, last T."""
     T = ep.n_frames
-    if config.segments == "none":
+    source, column = params.segmentation.segments, params.columns.segment_column
+    if source == "none":
         return np.array([0, T], dtype=np.int64)
-    if config.segments == "dataset":
+    if source == "dataset":
         if ep.segment_labels is None:
             raise ValueError(
-                f"ForceMapConfig.segments='dataset': the dataset has no {config.segment_column!r} column "
+                f"segments='dataset': the dataset has no {column!r} column "
                 "(run `forcemap segment` first, set segment_column, or use segments='auto')"
             )
-        return _labels_to_changepoints(ep.segment_labels, ep.episode, config.segment_column)
-    seg_cfg = segmentation_config(config, fps)
+        return _labels_to_changepoints(ep.segment_labels, ep.episode, column)
+    seg_cfg = segmentation_config(params, fps)
     try:
-        result = segment_streams(episode_streams(ep, config), seg_cfg)
+        result = segment_streams(episode_streams(ep, params), seg_cfg)
     except ValueError as err:
         raise ValueError(f"episode {ep.episode}: segmentation failed: {err}") from err
     if len(result.rejected):
         logger.warning(
             "episode %d: min_segment_s=%g (%d frames) dropped the changepoint(s) at frame(s) %s; kept %s",
-            ep.episode, config.min_segment_s, seg_cfg.min_segment_frames, result.rejected.tolist(),
+            ep.episode, params.segmentation.min_segment_s, seg_cfg.min_segment_frames, result.rejected.tolist(),
             result.changepoints.tolist(),
         )  # fmt: skip
     return np.asarray(result.changepoints, dtype=np.int64)
@@ -286,33 +289,65 @@ def segment_anchor(
     return choose_anchor(reference, track, static, radius)
 
 
-def _n_nodes(params: dict, config: ForceMapConfig, duration: float, n_samples: int) -> int:
-    if params.get("n_nodes") is not None:
-        return int(params["n_nodes"])
-    n = int(round(config.nodes_per_second * duration)) + 1
-    return max(int(config.min_nodes), min(n, max(n_samples, 3)))
+def _n_nodes(arm: ArmMap, duration: float, n_samples: int) -> int:
+    if arm.n_nodes is not None:
+        return int(arm.n_nodes)
+    n = int(round(arm.nodes_per_second * duration)) + 1
+    return max(int(arm.min_nodes), min(n, max(n_samples, 3)))
 
 
-def _n_gripper_nodes(config: ForceMapConfig, fps: float, duration: float, n_samples: int) -> int:
+def _n_gripper_nodes(p: SegmentParams, fps: float, duration: float, n_samples: int) -> int:
     """Gripper-map nodes: ``gripper_nodes_per_second`` (default the fps: one per control period)."""
-    rate = fps if config.gripper_nodes_per_second is None else float(config.gripper_nodes_per_second)
+    per_second = p.gripper.gripper_nodes_per_second
+    rate = fps if per_second is None else float(per_second)
     n = int(round(rate * duration)) + 1
-    return max(int(config.min_nodes), min(n, max(n_samples, 3)))
+    return max(int(p.arm.min_nodes), min(n, max(n_samples, 3)))
 
 
 def fit_skill(
     episodes: list[EpisodeArrays],
-    config: ForceMapConfig,
+    params: SkillParams,
     fps: float,
     env_state_names: list[str] | None = None,
 ) -> tuple[FittedSkill, FitReport]:
-    """Segment and fit the demonstrations (module docstring). Returns the skill and diagnostics."""
+    """Segment and fit the demonstrations (module docstring). Returns the skill and diagnostics.
+
+    ``fps``: the dataset's frame rate (Hz); ``env_state_names``: the names of the environment-state
+    columns (objects ``<obj>_x/_y/_z``), None when the episodes carry none.
+    """
     if not episodes:
         raise ValueError("fit_skill: no episodes")
     if not fps or fps <= 0:
         raise ValueError(f"fit_skill: fps must be > 0, got {fps}")
     t0 = time.perf_counter()
-    changepoints = [segment_episode(ep, config, fps) for ep in episodes]
+    changepoints = _changepoints(episodes, params, fps)
+    slots: tuple[ObjectSlot, ...] = ()
+    if env_state_names and all(ep.env_state is not None for ep in episodes):
+        slots = object_slots(env_state_names)
+    scene = object_poses(episodes[0].env_state[0], slots) if slots else {}
+    segments, arm_fits, gripper_fits = [], [], []
+    for s in range(len(changepoints[0]) - 1):
+        frames = _frames_of_segment(episodes, changepoints, s)
+        anchor = _anchor_of_segment(episodes, frames, slots, params) if slots else ""
+        maps, arm, grip = _fit_segment(episodes, frames, slots, anchor, params.segment(s), fps, s)
+        initial = scene[anchor] if anchor else IDENTITY_POSE.copy()
+        segments.append(replace(maps, anchor_initial_pose=initial))
+        arm_fits.append(arm)
+        gripper_fits.append(grip)
+    report = FitReport(
+        episodes=tuple(ep.episode for ep in episodes),
+        changepoints=tuple(changepoints),
+        anchors=tuple(m.anchor for m in segments),
+        arm_fits=tuple(arm_fits),
+        gripper_fits=tuple(gripper_fits),
+        seconds=time.perf_counter() - t0,
+    )
+    return FittedSkill(tuple(segments)), report
+
+
+def _changepoints(episodes: list[EpisodeArrays], params: SkillParams, fps: float) -> list[NDArray[np.int64]]:
+    """Changepoints of every episode; their segment counts must agree (the maps pool segment by segment)."""
+    changepoints = [segment_episode(ep, params, fps) for ep in episodes]
     counts = [len(c) - 1 for c in changepoints]
     if len(set(counts)) > 1:
         detail = ", ".join(f"episode {ep.episode}: {n}" for ep, n in zip(episodes, counts, strict=True))
@@ -321,135 +356,168 @@ def fit_skill(
             "mapped segment by segment, so they need the same number of segments. Pick episodes that "
             "agree, write consistent labels with `forcemap segment` (segments='dataset'), or use segments='none'."
         )
-    n_seg = counts[0]
+    return changepoints
 
-    slots: tuple[ObjectSlot, ...] = ()
-    if env_state_names and all(ep.env_state is not None for ep in episodes):
-        slots = object_slots(env_state_names)
-    scene = [object_poses(ep.env_state[0], slots) if slots else {} for ep in episodes]
 
-    segments, arm_fits, gripper_fits, anchors = [], [], [], []
-    for s in range(n_seg):
-        frames = [segment_frames(c, s) for c in changepoints]
-        for ep, fr in zip(episodes, frames, strict=True):
-            if len(fr) < 2:
-                raise ValueError(
-                    f"episode {ep.episode}, segment {s}: {len(fr)} frame(s); a segment needs >= 2"
-                )
-        first = episodes[0]
-        anchor = ""
-        if slots:
-            static = static_objects(episodes, slots, config.static_tolerance, frames)
-            anchor = segment_anchor(
-                first.pose[frames[0], :3],
-                first.env_state[frames[0]],
-                slots,
-                static,
-                config.anchor_radius,
-                by_moved_object=config.anchor_by_moved_object,
-            )
-        # the frame each episode's data is stored in: the anchor's pose at the segment's first frame
-        seg_poses = [
-            object_poses(ep.env_state[fr[0]], slots)[anchor] if anchor else None
-            for ep, fr in zip(episodes, frames, strict=True)
-        ]
-        xs, fs, qs, ts, gs, gfs = [], [], [], [], [], []
-        for ep, fr, pose in zip(episodes, frames, seg_poses, strict=True):
-            x, f, q = ep.pose[fr, :3], ep.force[fr], ep.pose[fr, 3:7]
-            if anchor:
-                x, f, q = to_object_frame(pose, x, f, q)
-            xs.append(x)
-            fs.append(f)
-            qs.append(q)
-            ts.append(ep.times[fr] - ep.times[fr[0]])
-            gs.append(ep.gripper[fr][:, None])
-            if ep.gripper_force is not None:
-                gfs.append(ep.gripper_force[fr][:, None])
-        p = config.segment_params(s)
-        duration = float(np.mean([t[-1] for t in ts]))
-        n = _n_nodes(p, config, duration, len(frames[0]))
-        v = float(p["time_scale"])
-        if v > 0:  # space-time map: time as a 4th coordinate (m), no force on it
-            xs_fit = [np.column_stack([x, v * t]) for x, t in zip(xs, ts, strict=True)]
-            fs_fit = [np.column_stack([f, np.zeros(len(f))]) for f in fs]
-        else:
-            xs_fit, fs_fit = xs, fs
-        ng = _n_gripper_nodes(config, fps, duration, len(frames[0]))
-        vg = float(p["gripper_time_scale"])
-        gfs = gfs if len(gfs) == len(gs) else None
-        if vg > 0:  # space-time gripper map: (closure, v_g t), the finger force on the closure only
-            gs = [np.column_stack([g, vg * t]) for g, t in zip(gs, ts, strict=True)]
-            if gfs is not None:
-                gfs = [np.column_stack([gf, np.zeros(len(gf))]) for gf in gfs]
-        try:
-            arm = fit_force_elastic_map(
-                xs_fit,
-                fs_fit if first.has_force else None,
-                n_nodes=n,
-                lam=p["lam"],
-                mu=p["mu"],
-                delta=p["delta"],
-                f_contact=p["f_contact"],
-                stiffness=p["stiffness"],
-                rho_max=p["rho_max"],
-                force_limit=p["force_limit"],
-                times=ts,
-                orientations=qs,
-                max_iter=int(config.max_iter),
-            )
-            grip = fit_force_elastic_map(
-                gs,
-                gfs,
-                n_nodes=ng,
-                lam=p["gripper_lam"],
-                mu=p["gripper_mu"],
-                delta=p["gripper_delta"],
-                f_contact=p["gripper_f_contact"],
-                stiffness=p["gripper_stiffness"],
-                rho_max=p["rho_max"],
-                times=ts,
-                max_iter=int(config.max_iter),
-            )
-        except ValueError as err:
-            raise ValueError(f"segment {s} (episodes {[ep.episode for ep in episodes]}): {err}") from err
-        for what, fit in (("arm", arm), ("gripper", grip)):
-            if fit.stop_reason == "max_iter":
-                # the EM still moved: these nodes are one iterate of many, not a fixed point
-                logger.warning(
-                    "segment %d: the %s map's EM stopped at max_iter=%d without converging (%d capped "
-                    "node-axes; nodes still moved up to %.3g and spring lengths up to %.3g in the last "
-                    "iteration, where the stop test needs both <= %.3g); its nodes may change by about that "
-                    "much with max_iter. A stiffer map (stiffness) caps fewer nodes.",
-                    s,
-                    what,
-                    fit.n_iter,
-                    len(fit.capped_nodes),
-                    fit.last_step,
-                    fit.last_spring_step,
-                    fit.step_tolerance,
-                )
-        segments.append(
-            SegmentMaps(
-                nodes=arm.nodes[:, :3],
-                node_times=arm.node_times,
-                orientations=arm.orientations,
-                gripper_nodes=grip.nodes[:, :1],
-                gripper_node_times=grip.node_times,
-                duration=duration,
-                anchor=anchor,
-                anchor_pose=seg_poses[0] if anchor else IDENTITY_POSE.copy(),
-                anchor_initial_pose=scene[0][anchor] if anchor else IDENTITY_POSE.copy(),
-            )
-        )
-        arm_fits.append(arm)
-        gripper_fits.append(grip)
-        anchors.append(anchor)
-    report = FitReport(
-        episodes=tuple(ep.episode for ep in episodes),
-        changepoints=tuple(changepoints),
-        anchors=tuple(anchors),
-        arm_fits=tuple(arm_fits),
-        gripper_fits=tuple(gripper_fits),
-        seconds=time.perf_counter() - t0,
+def _frames_of_segment(
+    episodes: list[EpisodeArrays], changepoints: list[NDArray[np.int64]], s: int
+) -> list[NDArray[np.int64]]:
+    frames = [segment_frames(c, s) for c in changepoints]
+    for ep, fr in zip(episodes, frames, strict=True):
+        if len(fr) < 2:
+            raise ValueError(f"episode {ep.episode}, segment {s}: {len(fr)} frame(s); a segment needs >= 2")
+    return frames
+
+
+def _anchor_of_segment(
+    episodes: list[EpisodeArrays],
+    frames: list[NDArray[np.int64]],
+    slots: tuple[ObjectSlot, ...],
+    params: SkillParams,
+) -> str:
+    """The segment's anchor, chosen on the first episode among objects at rest in every episode."""
+    a = params.anchoring
+    static = static_objects(episodes, slots, a.static_tolerance, frames)
+    first = episodes[0]
+    return segment_anchor(
+        first.pose[frames[0], :3],
+        first.env_state[frames[0]],
+        slots,
+        static,
+        a.anchor_radius,
+        by_moved_object=a.anchor_by_moved_object,
     )
-    return FittedSkill(tuple(segments)), report
+
+
+@dataclass(frozen=True)
+class _SegmentData:
+    """One segment of every episode: positions xs (T, 3), forces fs (T, 3) and orientations qs (T, 4)
+    in the anchor's frame, times ts (T,) from the segment's start, gripper gs (T, 1) and its force
+    gfs (T, 1) (None unless every episode has finger forces)."""
+
+    xs: list[Array]
+    fs: list[Array]
+    qs: list[Array]
+    ts: list[Array]
+    gs: list[Array]
+    gfs: list[Array] | None
+
+
+def _segment_data(
+    episodes: list[EpisodeArrays], frames: list[NDArray[np.int64]], poses: list[Array | None]
+) -> _SegmentData:
+    """Each episode's segment, in its anchor's pose (7,) at the segment's first frame (None: base frame)."""
+    xs, fs, qs, ts, gs, gfs = [], [], [], [], [], []
+    for ep, fr, pose in zip(episodes, frames, poses, strict=True):
+        x, f, q = ep.pose[fr, :3], ep.force[fr], ep.pose[fr, 3:7]
+        if pose is not None:
+            x, f, q = to_object_frame(pose, x, f, q)
+        xs.append(x)
+        fs.append(f)
+        qs.append(q)
+        ts.append(ep.times[fr] - ep.times[fr[0]])
+        gs.append(ep.gripper[fr][:, None])
+        if ep.gripper_force is not None:
+            gfs.append(ep.gripper_force[fr][:, None])
+    return _SegmentData(xs, fs, qs, ts, gs, gfs if len(gfs) == len(gs) else None)
+
+
+def _fit_segment(
+    episodes: list[EpisodeArrays],
+    frames: list[NDArray[np.int64]],
+    slots: tuple[ObjectSlot, ...],
+    anchor: str,
+    p: SegmentParams,
+    fps: float,
+    s: int,
+) -> tuple[SegmentMaps, ElasticMapFit, ElasticMapFit]:
+    """The arm and gripper maps of segment ``s`` (its ``anchor_initial_pose`` is the caller's)."""
+    # the frame each episode's data is stored in: the anchor's pose at the segment's first frame
+    poses = [
+        object_poses(ep.env_state[fr[0]], slots)[anchor] if anchor else None
+        for ep, fr in zip(episodes, frames, strict=True)
+    ]
+    data = _segment_data(episodes, frames, poses)
+    duration = float(np.mean([t[-1] for t in data.ts]))
+    n_samples = len(frames[0])
+    try:
+        arm = _fit_arm(data, p.arm, _n_nodes(p.arm, duration, n_samples), episodes[0].has_force)
+        grip = _fit_gripper(data, p, _n_gripper_nodes(p, fps, duration, n_samples))
+    except ValueError as err:
+        raise ValueError(f"segment {s} (episodes {[ep.episode for ep in episodes]}): {err}") from err
+    for what, fit in (("arm", arm), ("gripper", grip)):
+        _warn_unconverged(s, what, fit)
+    maps = SegmentMaps(
+        nodes=arm.nodes[:, :3],
+        node_times=arm.node_times,
+        orientations=arm.orientations,
+        gripper_nodes=grip.nodes[:, :1],
+        gripper_node_times=grip.node_times,
+        duration=duration,
+        anchor=anchor,
+        anchor_pose=poses[0] if anchor else IDENTITY_POSE.copy(),
+    )
+    return maps, arm, grip
+
+
+def _fit_arm(data: _SegmentData, arm: ArmMap, n_nodes: int, has_force: bool) -> ElasticMapFit:
+    """Positions with the wrist force points; with ``time_scale`` v > 0 in space-time (x, v t), no
+    force on the time axis."""
+    xs, fs = data.xs, data.fs
+    v = float(arm.time_scale)
+    if v > 0:
+        xs = [np.column_stack([x, v * t]) for x, t in zip(xs, data.ts, strict=True)]
+        fs = [np.column_stack([f, np.zeros(len(f))]) for f in fs]
+    return fit_force_elastic_map(
+        xs,
+        fs if has_force else None,
+        n_nodes=n_nodes,
+        lam=arm.lam,
+        mu=arm.mu,
+        delta=arm.delta,
+        f_contact=arm.f_contact,
+        stiffness=arm.stiffness,
+        rho_max=arm.rho_max,
+        force_limit=arm.force_limit,
+        times=data.ts,
+        orientations=data.qs,
+        max_iter=int(arm.max_iter),
+    )
+
+
+def _fit_gripper(data: _SegmentData, p: SegmentParams, n_nodes: int) -> ElasticMapFit:
+    """The gripper coordinate with the finger force; with ``gripper_time_scale`` v_g > 0 in space-time
+    (closure, v_g t), the finger force on the closure only. ``rho_max`` and ``max_iter`` are the arm's."""
+    g = p.gripper
+    gs, gfs = data.gs, data.gfs
+    vg = float(g.gripper_time_scale)
+    if vg > 0:
+        gs = [np.column_stack([x, vg * t]) for x, t in zip(gs, data.ts, strict=True)]
+        if gfs is not None:
+            gfs = [np.column_stack([gf, np.zeros(len(gf))]) for gf in gfs]
+    return fit_force_elastic_map(
+        gs,
+        gfs,
+        n_nodes=n_nodes,
+        lam=g.gripper_lam,
+        mu=g.gripper_mu,
+        delta=g.gripper_delta,
+        f_contact=g.gripper_f_contact,
+        stiffness=g.gripper_stiffness,
+        rho_max=p.arm.rho_max,
+        times=data.ts,
+        max_iter=int(p.arm.max_iter),
+    )
+
+
+def _warn_unconverged(s: int, what: str, fit: ElasticMapFit) -> None:
+    if fit.stop_reason == "max_iter":
+        # the EM still moved: these nodes are one iterate of many, not a fixed point
+        logger.warning(
+            "segment %d: the %s map's EM stopped at max_iter=%d without converging (%d capped "
+            "node-axes; nodes still moved up to %.3g and spring lengths up to %.3g in the last "
+            "iteration, where the stop test needs both <= %.3g); its nodes may change by about that "
+            "much with max_iter. A stiffer map (stiffness) caps fewer nodes.",
+            s, what, fit.n_iter, len(fit.capped_nodes), fit.last_step, fit.last_spring_step,
+            fit.step_tolerance,
+        )  # fmt: skip

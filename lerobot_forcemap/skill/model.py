@@ -13,7 +13,7 @@ A :class:`Reproduction` is the skill placed in one scene (base frame, every segm
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -22,9 +22,12 @@ from numpy.typing import NDArray
 from lerobot_forcemap import layout
 from lerobot_forcemap.geometry import slerp_sequence
 
-__all__ = ["SegmentMaps", "FittedSkill", "Reproduction"]
+__all__ = ["SegmentMaps", "FittedSkill", "Reproduction", "check_flat_arrays", "MAX_MAGNITUDE"]
 
 Array = NDArray[np.float64]
+#: the largest magnitude of a fitted value (m, s, gripper units): a skill lives within a robot's reach
+#: and an episode's time; beyond it the arrays are corrupt (and squared distances would overflow)
+MAX_MAGNITUDE = 1e6
 
 
 @dataclass(frozen=True)
@@ -127,7 +130,9 @@ class FittedSkill:
         segment_n_gripper_nodes: Sequence[int],
         anchors: Sequence[str],
     ) -> FittedSkill:
-        """Inverse of :meth:`flat_arrays` given the per-segment sizes and anchors."""
+        """Inverse of :meth:`flat_arrays` given the per-segment sizes and anchors (values checked by
+        :func:`check_flat_arrays`)."""
+        check_flat_arrays(arrays, segment_n_nodes, segment_n_gripper_nodes)
         cut = np.cumsum(segment_n_nodes)[:-1]
         gcut = np.cumsum(segment_n_gripper_nodes)[:-1]
         parts = {
@@ -159,12 +164,49 @@ class FittedSkill:
         )
 
 
+def check_flat_arrays(
+    arrays: Mapping[str, np.ndarray], segment_n_nodes: Sequence[int], segment_n_gripper_nodes: Sequence[int]
+) -> None:
+    """Raise ``ValueError("tensor '<name>' ...")`` unless the flat arrays (:meth:`FittedSkill.flat_arrays`,
+    plus any others given, which are checked for range only) hold possible values: finite and within
+    ±:data:`MAX_MAGNITUDE`, durations > 0, node times non-decreasing within their segment's
+    ``[0, duration]``, unit quaternions."""
+    for name, a in arrays.items():
+        bad = ~(np.abs(a) <= MAX_MAGNITUDE)
+        if bad.any():
+            what = "non-finite" if not np.isfinite(a).all() else f"beyond ±{MAX_MAGNITUDE:g}"
+            first = np.argwhere(bad)[0].tolist()
+            raise ValueError(f"tensor {name!r} has {int(bad.sum())} {what} value(s), first at {first}")
+    durations = arrays["durations"]
+    if np.any(durations <= 0):
+        raise ValueError(f"tensor 'durations' must be > 0, got {durations.tolist()}")
+    for name, sizes in (("node_times", segment_n_nodes), ("gripper_node_times", segment_n_gripper_nodes)):
+        for s, part in enumerate(np.split(arrays[name], np.cumsum(sizes)[:-1])):
+            if np.any(np.diff(part) < 0):
+                raise ValueError(f"tensor {name!r} decreases within segment {s}")
+            slack = 1e-6 * max(1.0, float(durations[s]))  # float32 rounding of node times
+            if part.size and (part[0] < -slack or part[-1] > durations[s] + slack):
+                raise ValueError(
+                    f"tensor {name!r} in segment {s} spans [{part[0]:.6g}, {part[-1]:.6g}] s, "
+                    f"outside the segment's [0, {durations[s]:.6g}] s (tensor 'durations')"
+                )
+    for name, quats in (
+        ("orientations", arrays["orientations"]),
+        ("anchor_poses", arrays["anchor_poses"][:, 3:7]),  # [x y z qw qx qy qz] per segment
+        ("anchor_initial_poses", arrays["anchor_initial_poses"][:, 3:7]),
+    ):
+        norms = np.linalg.norm(quats, axis=1)
+        if np.any(np.abs(norms - 1.0) > 1e-6):
+            i = int(np.argmax(np.abs(norms - 1.0)))
+            raise ValueError(f"tensor {name!r} row {i} is not a unit quaternion (norm {norms[i]:.6g})")
+
+
 @dataclass(frozen=True)
 class Reproduction:
     """A skill placed in one scene: every segment in the base frame, run back to back in time.
 
     segments: the placed segments (``anchor`` names the object, ``anchor_pose`` is the object's
-    base-frame pose the placement assumed at the segment's start: see ``anchoring.reanchor_segment``);
+    base-frame pose the placement assumed at the segment's start: see ``placement.reanchor_segment``);
     start_times (S,) s since reset at which each segment starts; total duration = last end.
     """
 

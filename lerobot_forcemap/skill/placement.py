@@ -23,7 +23,7 @@ Placing (:func:`place_skill`), per segment s with stored nodes y_s:
 3. Each free segment (base frame) gets the new start/end points as equality constraints
    (``Constraints(start=..., end=...)``) and is re-solved by the elastic map against its own stored
    nodes, first displaced by the endpoint displacements blended linearly along the segment's time
-   law. The blend is needed because the squared cluster weight of the data term (SPEC §1)
+   law. The blend is needed because the squared cluster weight of the data term
    dominates the smoothness terms at the fitted λ, μ: a re-solve against the unmoved nodes only
    bends the few nodes next to a moved end (a kink, not a new path). An anchored segment whose
    endpoint has to move (it is the first segment, or its neighbour is anchored elsewhere) gets the
@@ -49,7 +49,7 @@ re-solved by the elastic map with their new endpoints as equality constraints.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -65,6 +65,7 @@ from lerobot_forcemap.geometry import (
     rotvec_to_quat,
 )
 from lerobot_forcemap.skill.model import FittedSkill, Reproduction, SegmentMaps
+from lerobot_forcemap.skill.params import ArmMap, SkillParams
 
 __all__ = [
     "ObjectSlot",
@@ -79,6 +80,8 @@ __all__ = [
     "provisional_segments",
     "place_skill",
     "reanchor_segment",
+    "SkillRun",
+    "path_distances",
     "IDENTITY_POSE",
 ]
 
@@ -206,29 +209,45 @@ def from_object_frame(pose: Array, positions: Array, quats: Array) -> tuple[Arra
     return pose[:3] + quat_rotate(pose[3:], positions), quat_multiply(pose[3:], quats)
 
 
-def _blend(seg: SegmentMaps, d_start: Array, d_end: Array, start_window: float | None = None) -> Array:
-    """Nodes displaced by ``(1-u) d_start + u d_end``, u the node's fraction of the segment's time law;
-    with ``start_window`` (s) the start displacement fades out linearly over that time instead."""
+def _fade(seg: SegmentMaps, start_window: float | None) -> tuple[Array, Array]:
+    """(u, fade) per node: u its fraction of the segment's time law (0 .. 1), fade = 1 − u, or with
+    ``start_window`` (s) shorter than the segment a linear fade to 0 over that time."""
     t = seg.node_times
     span = t[-1] - t[0]
     u = (t - t[0]) / span if span > 0 else np.linspace(0.0, 1.0, len(t))
     fade = 1.0 - u
     if start_window is not None and start_window < span:
         fade = np.clip(1.0 - (t - t[0]) / max(start_window, 1e-9), 0.0, 1.0)
+    return u, fade
+
+
+def _blend(seg: SegmentMaps, d_start: Array, d_end: Array, start_window: float | None = None) -> Array:
+    """Nodes displaced by ``fade d_start + u d_end`` (:func:`_fade`)."""
+    u, fade = _fade(seg, start_window)
     return seg.nodes + fade[:, None] * d_start + u[:, None] * d_end
 
 
-def _resolve(
-    seg: SegmentMaps, data: Array, start: Array, end: Array, params: Mapping[str, float]
-) -> SegmentMaps:
+def _blend_start_orientation(seg: SegmentMaps, q_start: Array, start_window: float | None = None) -> Array:
+    """Orientations rotated by ``fade`` of the rotation from the first node's to ``q_start`` (:func:`_fade`)."""
+    q0 = seg.orientations[0]
+    q_start = quat_normalize(q_start)
+    if np.dot(q_start, q0) < 0:
+        q_start = -q_start
+    delta = quat_to_rotvec(quat_multiply(q_start, quat_conjugate(q0)))
+    _, fade = _fade(seg, start_window)
+    rot = rotvec_to_quat(fade[:, None] * delta[None, :])
+    return quat_normalize(quat_multiply(rot, seg.orientations))
+
+
+def _resolve(seg: SegmentMaps, data: Array, start: Array, end: Array, arm: ArmMap) -> SegmentMaps:
     """Re-solve a free segment against ``data (N, 3)`` (its displaced nodes) with start/end equalities.
 
-    With ``params["time_scale"] = v > 0`` the re-solve is in space-time like the fit: the node times
+    With ``arm.time_scale = v > 0`` the re-solve is in space-time like the fit: the node times
     scaled by v are a 4th coordinate whose ends are constrained to the stored ones.
     """
     t = seg.node_times
     timed = t[-1] > t[0]
-    v = float(params.get("time_scale") or 0.0)
+    v = float(arm.time_scale or 0.0)
     if v > 0:
         data = np.column_stack([data, v * t])
         start = np.append(start, v * t[0])
@@ -236,8 +255,8 @@ def _resolve(
     fit = fit_force_elastic_map(
         data,
         n_nodes=len(data),
-        lam=float(params["lam"]),
-        mu=float(params["mu"]),
+        lam=float(arm.lam),
+        mu=float(arm.mu),
         constraints=Constraints(start=start, end=end),
         times=t if timed else None,
         orientations=seg.orientations,
@@ -250,10 +269,10 @@ def _resolve(
 
 def place_skill(
     skill: FittedSkill,
+    params: SkillParams,
     *,
     robot_pose: Array | None,
     object_pose: Mapping[str, Array] | None = None,
-    params_for: Callable[[int], Mapping[str, float]],
     resolve: bool = True,
     anchor_poses: Sequence[Array | None] | None = None,
     start_window: float | None = None,
@@ -261,10 +280,11 @@ def place_skill(
 ) -> Reproduction:
     """The skill placed in a scene (see the module docstring).
 
+    params: the settings the skill was fitted with (the free segments' re-solve uses each segment's
+    ``lam``, ``mu``, ``time_scale``);
     robot_pose: (7,) current end-effector pose [x y z qw qx qy qz] (None: keep the stored start);
     object_pose: {object name: (7,) pose now} for every anchor of the skill (pass
     ``skill.demo_object_poses()`` to replay the demonstration's scene);
-    params_for(s): the segment's elastic-map parameters (``lam``, ``mu``, ``time_scale`` are used);
     resolve: re-solve free segments with the elastic map (False: the blended displacement only);
     anchor_poses: per segment the base-frame anchor pose at its start (7,) (None for free segments),
     instead of the prediction from ``object_pose`` (:func:`predicted_anchor_poses`);
@@ -277,31 +297,75 @@ def place_skill(
     Each placed anchored segment keeps the pose it was placed with (or will be re-anchored from, when
     provisional) as its ``anchor_pose``.
     """
-    segs = list(skill.segments)
-    S = len(segs)
+    arms = [params.segment(s).arm for s in range(skill.n_segments)]
     if anchor_poses is None:
         anchor_poses = predicted_anchor_poses(skill, object_pose or {})
+    return _place(skill.segments, arms, robot_pose, anchor_poses, resolve, start_window, provisional)
+
+
+def _place(
+    segs: Sequence[SegmentMaps],
+    arms: Sequence[ArmMap],
+    robot_pose: Array | None,
+    anchor_poses: Sequence[Array | None],
+    resolve: bool,
+    start_window: float | None,
+    provisional: Sequence[bool] | None,
+) -> Reproduction:
+    """:func:`place_skill` of the segments ``segs`` with their arm-map parameters ``arms``."""
+    S = len(segs)
     if len(anchor_poses) != S:
         raise ValueError(f"anchor_poses: {len(anchor_poses)} entries for {S} segments")
     prov = [False] * S if provisional is None else [bool(p) for p in provisional]
     if len(prov) != S:
         raise ValueError(f"provisional: {len(prov)} entries for {S} segments")
+    base = _in_base_frame(segs, anchor_poses, prov)
+    fixed = [bool(seg.anchor) and not prov[s] for s, seg in enumerate(base)]
+    points = _boundary_points(base, fixed, robot_pose)
+    placed = []
+    for s, seg in enumerate(base):
+        # consecutive segments anchored to the same object keep their fitted relation (rigid together)
+        same_before = s > 0 and fixed[s] and fixed[s - 1] and base[s - 1].anchor == seg.anchor
+        same_after = s < S - 1 and fixed[s] and fixed[s + 1] and base[s + 1].anchor == seg.anchor
+        d0 = np.zeros(3) if same_before else points[s] - seg.nodes[0]
+        d1 = np.zeros(3) if same_after else points[s + 1] - seg.nodes[-1]
+        out = seg
+        if max(np.abs(d0).max(), np.abs(d1).max()) > 0.0:
+            data = _blend(seg, d0, d1, start_window if s == 0 else None)
+            if seg.anchor or not resolve:
+                out = replace(seg, nodes=data)
+            else:
+                out = _resolve(seg, data, data[0], data[-1], arms[s])
+        if s == 0 and robot_pose is not None:
+            q_robot = np.asarray(robot_pose[3:7], float)
+            out = replace(out, orientations=_blend_start_orientation(out, q_robot, start_window))
+        placed.append(out)
+    return Reproduction(tuple(placed))
+
+
+def _in_base_frame(
+    segs: Sequence[SegmentMaps], anchor_poses: Sequence[Array | None], prov: list[bool]
+) -> list[SegmentMaps]:
+    """Anchored segments moved rigidly to their anchor pose (a provisional one to its demonstrated
+    pose); each keeps the pose it was placed with, or will be re-anchored from, as ``anchor_pose``."""
     base: list[SegmentMaps] = []
     for s, seg in enumerate(segs):
-        if seg.anchor:
-            if anchor_poses[s] is None:
-                raise ValueError(
-                    f"anchor_poses[{s}]: segment {s} is anchored to {seg.anchor!r} but has no pose"
-                )
-            pose = np.asarray(anchor_poses[s], dtype=np.float64)
-            frame = np.asarray(seg.anchor_pose, dtype=np.float64) if prov[s] else pose
-            nodes, quats = from_object_frame(frame, seg.nodes, seg.orientations)
-            base.append(replace(seg, nodes=nodes, orientations=quats, anchor_pose=pose))
-        else:
+        if not seg.anchor:
             base.append(seg)
-    fixed = [bool(seg.anchor) and not prov[s] for s, seg in enumerate(base)]
+            continue
+        if anchor_poses[s] is None:
+            raise ValueError(f"anchor_poses[{s}]: segment {s} is anchored to {seg.anchor!r} but has no pose")
+        pose = np.asarray(anchor_poses[s], dtype=np.float64)
+        frame = np.asarray(seg.anchor_pose, dtype=np.float64) if prov[s] else pose
+        nodes, quats = from_object_frame(frame, seg.nodes, seg.orientations)
+        base.append(replace(seg, nodes=nodes, orientations=quats, anchor_pose=pose))
+    return base
 
-    # boundary points b_0..b_S (None where not fixed by the robot or an anchored neighbour)
+
+def _boundary_points(base: list[SegmentMaps], fixed: list[bool], robot_pose: Array | None) -> list[Array]:
+    """Boundary points b_0..b_S: the robot's position, anchored neighbours' endpoints, and between
+    them the displacement interpolated in time (held after the last known one)."""
+    S = len(base)
     known: list[Array | None] = [None] * (S + 1)
     demo_point = [base[s].nodes[0] for s in range(S)] + [base[-1].nodes[-1]]
     known[0] = np.asarray(robot_pose[:3], float) if robot_pose is not None else base[0].nodes[0].copy()
@@ -319,30 +383,10 @@ def place_skill(
     for i in range(S + 1):
         if known[i] is not None:
             points.append(known[i])
-        else:  # displacement interpolated in time between the fixed boundaries, held after the last
+        else:
             d = np.array([np.interp(starts[i], starts[have], disp[:, q]) for q in range(3)])
             points.append(demo_point[i] + d)
-
-    placed = []
-    for s, seg in enumerate(base):
-        # consecutive segments anchored to the same object keep their fitted relation (rigid together)
-        same_before = s > 0 and fixed[s] and fixed[s - 1] and base[s - 1].anchor == seg.anchor
-        same_after = s < S - 1 and fixed[s] and fixed[s + 1] and base[s + 1].anchor == seg.anchor
-        d0 = np.zeros(3) if same_before else points[s] - seg.nodes[0]
-        d1 = np.zeros(3) if same_after else points[s + 1] - seg.nodes[-1]
-        moved = max(np.abs(d0).max(), np.abs(d1).max()) > 0.0
-        out = seg
-        if moved:
-            data = _blend(seg, d0, d1, start_window if s == 0 else None)
-            if seg.anchor or not resolve:
-                out = replace(seg, nodes=data)
-            else:
-                out = _resolve(seg, data, data[0], data[-1], params_for(s))
-        if s == 0 and robot_pose is not None:
-            q_robot = np.asarray(robot_pose[3:7], float)
-            out = replace(out, orientations=_blend_start_orientation(out, q_robot, start_window))
-        placed.append(out)
-    return Reproduction(tuple(placed))
+    return points
 
 
 def reanchor_segment(
@@ -350,8 +394,8 @@ def reanchor_segment(
     skill: FittedSkill,
     s: int,
     position: Array,
+    params: SkillParams,
     *,
-    params_for: Callable[[int], Mapping[str, float]],
     resolve: bool = True,
     blend_s: float | None = None,
     provisional: Sequence[bool] | None = None,
@@ -381,31 +425,133 @@ def reanchor_segment(
         poses.append(pose)
     prev = placed[s - 1]
     junction = np.concatenate([prev.nodes[-1], prev.orientations[-1]])
-    rest = place_skill(
-        FittedSkill(tuple(skill.segments[s:])),
-        robot_pose=junction,
-        params_for=lambda k: params_for(k + s),
-        resolve=resolve,
-        anchor_poses=poses,
-        start_window=blend_s,
-        provisional=None if provisional is None else [False, *list(provisional)[s + 1 :]],
+    rest = _place(
+        skill.segments[s:],
+        [params.segment(k).arm for k in range(s, skill.n_segments)],
+        junction,
+        poses,
+        resolve,
+        blend_s,
+        None if provisional is None else [False, *list(provisional)[s + 1 :]],
     )
     return Reproduction((*placed[:s], *rest.segments))
 
 
-def _blend_start_orientation(seg: SegmentMaps, q_start: Array, start_window: float | None = None) -> Array:
-    """Orientations rotated by ``(1-u)`` of the rotation from the first node's to ``q_start`` (faded
-    over ``start_window`` seconds instead, when given)."""
-    q0 = seg.orientations[0]
-    q_start = quat_normalize(q_start)
-    if np.dot(q_start, q0) < 0:
-        q_start = -q_start
-    delta = quat_to_rotvec(quat_multiply(q_start, quat_conjugate(q0)))
-    t = seg.node_times
-    span = t[-1] - t[0]
-    u = (t - t[0]) / span if span > 0 else np.linspace(0.0, 1.0, len(t))
-    fade = 1.0 - u
-    if start_window is not None and start_window < span:
-        fade = np.clip(1.0 - (t - t[0]) / max(start_window, 1e-9), 0.0, 1.0)
-    rot = rotvec_to_quat(fade[:, None] * delta[None, :])
-    return quat_normalize(quat_multiply(rot, seg.orientations))
+class SkillRun:
+    """One episode of a fitted skill acted out in a batch of scenes, one placement per batch row.
+
+    Placed at the start (:meth:`start`) from each row's robot pose and object poses; while it runs,
+    each object-anchored segment is re-anchored when it starts (``online``) to its object's position
+    observed then (:meth:`due`, :meth:`reanchor`). ``log`` lists every re-anchoring: segment, batch
+    row, time (s since the start) and shift (m).
+    """
+
+    def __init__(
+        self,
+        skill: FittedSkill,
+        params: SkillParams,
+        placed: list[Reproduction],
+        provisional: list[bool],
+        *,
+        online: bool,
+        tolerance: float,
+        blend_s: float | None,
+    ):
+        self.skill, self.params, self.placed = skill, params, placed
+        self.provisional = provisional
+        self.online, self.tolerance, self.blend_s = online, tolerance, blend_s
+        self.next_segment = 1  # the next segment whose start may re-anchor it (segment 0: at the start)
+        # per object: its demonstrated pose (7,) at its last observation (the start, or a re-anchoring)
+        self.observed_as: dict[str, Array] = skill.demo_object_poses()
+        self.log: list[dict] = []
+
+    @classmethod
+    def start(
+        cls,
+        skill: FittedSkill,
+        params: SkillParams,
+        robot_poses: Array | None,
+        object_poses: Sequence[Mapping[str, Array]],
+        *,
+        online: bool,
+        tolerance: float = 0.0,
+        blend_s: float | None = None,
+    ) -> SkillRun:
+        """Place the skill in each row's scene: ``robot_poses (n, 7)`` (None: the stored start) and
+        ``object_poses[i]`` ``{object: (7,)}``. ``online``: re-anchor segments when they start, and
+        until then lay out those whose object moves before them as provisional; ``tolerance`` (m):
+        shifts at most this are ignored; ``blend_s``: see :func:`reanchor_segment`."""
+        demo = skill.demo_object_poses()
+        provisional = (
+            provisional_segments(skill, demo, params.anchoring.static_tolerance)
+            if online
+            else [False] * skill.n_segments
+        )
+        placed = [
+            place_skill(
+                skill,
+                params,
+                robot_pose=None if robot_poses is None else robot_poses[i, :7],
+                object_pose=poses,
+                provisional=provisional,
+            )
+            for i, poses in enumerate(object_poses)
+        ]
+        return cls(skill, params, placed, provisional, online=online, tolerance=tolerance, blend_s=blend_s)
+
+    def actions_at(self, times: Array) -> Array:
+        """Targets ``(n, K, 8)`` of every row at ``times (K,)`` (s since the start)."""
+        return np.stack([rep.actions_at(times) for rep in self.placed])
+
+    def due(self, t: float) -> list[int]:
+        """The anchored segments that started by ``t`` and were not re-anchored yet; segments with
+        nothing to re-anchor are passed over here."""
+        current = self.placed[0].segment_at(t)
+        if not self.online or self.next_segment > current:
+            return []
+        started = [s for s in range(self.next_segment, current + 1) if self.skill.segments[s].anchor]
+        if not started:
+            self.next_segment = current + 1
+        return started
+
+    def reanchor(self, t: float, object_poses: Sequence[Mapping[str, Array]]) -> None:
+        """Re-anchor the segments :meth:`due` at ``t`` to the objects observed now (``{object: (7,)}``
+        per row); call it once the observation has been read."""
+        started = self.due(t)
+        if not started:
+            return
+        self.next_segment = self.placed[0].segment_at(t) + 1
+        for s in started:
+            was_provisional = self.provisional[s]
+            obj = self.skill.segments[s].anchor
+            self.observed_as[obj] = np.asarray(self.skill.segments[s].anchor_pose, dtype=np.float64)
+            self.provisional = provisional_segments(
+                self.skill, self.observed_as, self.params.anchoring.static_tolerance, started=s
+            )
+            for i, poses in enumerate(object_poses):
+                position = poses[obj][:3]
+                shift = position - self.placed[i].segments[s].anchor_pose[:3]
+                if not was_provisional and float(np.linalg.norm(shift)) <= self.tolerance:
+                    continue
+                self.placed[i] = reanchor_segment(
+                    self.placed[i],
+                    self.skill,
+                    s,
+                    position,
+                    self.params,
+                    blend_s=self.blend_s,
+                    provisional=self.provisional,
+                )
+                self.log.append({"segment": s, "row": i, "t": float(t), "shift": [float(v) for v in shift]})
+
+
+def path_distances(
+    skill: FittedSkill, params: SkillParams, targets: Array, object_poses: Sequence[Mapping[str, Array]]
+) -> Array:
+    """Distance (m) of each target position ``targets (n, 3)`` to the skill's path placed in its own
+    scene ``object_poses[i]`` (the stored start, no robot pose): ``(n,)``."""
+    dist = np.empty(len(targets))
+    for i, x in enumerate(targets):
+        path = place_skill(skill, params, robot_pose=None, object_pose=object_poses[i]).path()
+        dist[i] = float(np.min(np.linalg.norm(path - x, axis=1)))
+    return dist

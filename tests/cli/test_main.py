@@ -79,11 +79,13 @@ def test_a_bad_fit_setting_is_one_line_naming_the_field(tmp_path, capsys, monkey
     assert cli(["fit", "--dataset", str(dataset), "--out", str(tmp_path / "o"), "--set", "stiffness=-5"]) == 2
     err = capsys.readouterr().err
     # one line naming the flag it came from; the config's log line (for lerobot-train) is not repeated
-    assert err.startswith("forcemap fit: error: --set: ForceMapConfig.stiffness: must be > 0, got -5.0\n"), (
-        err
-    )
+    assert err.startswith(
+        "forcemap fit: error: --set: ForceMapConfig.stiffness: must be a finite number > 0 N/m, got -5.0\n"
+    ), err
     assert cli(["fit", "--dataset", str(dataset), "--out", str(tmp_path / "o"), "--episodes", "-1"]) == 2
-    assert capsys.readouterr().err.startswith("forcemap fit: error: --episodes: ForceMapConfig.episodes:")
+    assert capsys.readouterr().err.startswith(
+        "forcemap fit: error: --episodes: ForceMapConfig.episodes[0]: must be an integer >= 0, got -1\n"
+    )
 
 
 def test_warnings_are_lines_naming_the_command_not_our_source(tmp_path, capsys, monkeypatch):

@@ -30,10 +30,6 @@ def _edit_config(path, **changes):
     return data
 
 
-#: the normaliser's statistics, saved by LeRobot next to policy_preprocessor.json
-PRE_STATE = "policy_preprocessor_step_3_normalizer_processor.safetensors"
-
-
 def _drop_config_keys(path, *names):
     data = json.loads((path / "config.json").read_text())
     for name in names:
@@ -65,7 +61,10 @@ def test_config_and_tensors_that_do_not_belong_together(ckpt):
     n = list(data["segment_n_nodes"])
     n[0] += 1
     _edit_config(ckpt, segment_n_nodes=n)
-    with pytest.raises(ValueError, match=r"model\.safetensors: tensor 'nodes' has shape .* segment_n_nodes"):
+    with pytest.raises(
+        ValueError,
+        match=r"model\.safetensors: tensor 'nodes' has shape and dtype .* implies .* segment_n_nodes",
+    ):
         ForceMapPolicy.from_pretrained(ckpt)
 
 
@@ -86,7 +85,10 @@ def test_missing_tensor(ckpt):
     tensors = load_file(ckpt / "model.safetensors")
     del tensors["durations"]
     save_file(tensors, ckpt / "model.safetensors")
-    with pytest.raises(ValueError, match=r"model\.safetensors: missing tensor\(s\) \['durations'\]"):
+    with pytest.raises(
+        ValueError,
+        match=r"model\.safetensors: missing tensor\(s\) \['durations'\], unexpected tensor\(s\) \[\]",
+    ):
         ForceMapPolicy.from_pretrained(ckpt)
 
 
@@ -94,7 +96,10 @@ def test_wrong_dtype(ckpt):
     tensors = load_file(ckpt / "model.safetensors")
     tensors["nodes"] = tensors["nodes"].float()
     save_file(tensors, ckpt / "model.safetensors")
-    with pytest.raises(ValueError, match="tensor 'nodes' has dtype F32, expected F64"):
+    with pytest.raises(
+        ValueError,
+        match=r"tensor 'nodes' has shape and dtype \(\(\d+, 3\), 'F32'\), config.json implies \(\(\d+, 3\), 'F64'\)",
+    ):
         ForceMapPolicy.from_pretrained(ckpt)
 
 
@@ -106,18 +111,31 @@ def test_non_finite_values(ckpt):
         ForceMapPolicy.from_pretrained(ckpt)
 
 
+def test_values_beyond_a_robots_reach_are_refused_by_file(ckpt):
+    """Nodes multiplied by 1e300 loaded, then failed at the first select_action naming no file."""
+    tensors = load_file(ckpt / "model.safetensors")
+    tensors["nodes"] = tensors["nodes"] * 1e300
+    save_file(tensors, ckpt / "model.safetensors")
+    with pytest.raises(
+        ValueError,
+        match=r"model\.safetensors: tensor 'nodes' has \d+ beyond ±1e\+06 value\(s\), first at \[0, 0\]",
+    ):
+        ForceMapPolicy.from_pretrained(ckpt)
+
+
 @pytest.mark.parametrize(
     "edit, message",
     [
         (lambda p: (p / "config.json").write_text("{not json"), r"config\.json: not valid JSON"),
         (lambda p: _edit_config(p, type="act"), r"config\.json: field 'type' is 'act', expected 'forcemap'"),
+        # types: draccus' own parse, named under the file
         (
             lambda p: _edit_config(p, n_segments="three"),
-            r"config\.json: field 'n_segments' must be an integer",
+            r"config\.json: cannot read the policy config: `n_segments`: Couldn't parse 'three' into an int",
         ),
         (
             lambda p: _edit_config(p, segment_n_nodes=[1.5, 2]),
-            r"config\.json: field 'segment_n_nodes' must be a list of integers",
+            r"config\.json: cannot read the policy config: `segment_n_nodes\.0`: Couldn't parse '1\.5'",
         ),
         (
             lambda p: _edit_config(p, n_segments=7),
@@ -133,7 +151,8 @@ def test_non_finite_values(ckpt):
         ),
         (
             lambda p: _edit_config(p, segment_overrides={"7": {"stiffness": 4000.0}}),
-            r"config\.json: cannot read the policy config: .*segment_overrides: segment\(s\) \[7\] do not exist",
+            r"config\.json: cannot read the policy config: .*segment_overrides: must name segments of the fit "
+            r"\(0\.\.1\), got \[7\]",
         ),
         (
             lambda p: _drop_config_keys(p, "lam"),
@@ -146,14 +165,6 @@ def test_non_finite_values(ckpt):
         (
             lambda p: _drop_config_keys(p, "output_features"),
             r"config\.json: field 'output_features' is missing",
-        ),
-        (
-            lambda p: (p / PRE_STATE).write_bytes((p / PRE_STATE).read_bytes()[:100]),
-            rf"{PRE_STATE}: not a readable safetensors file",
-        ),
-        (
-            lambda p: save_file({"x": torch.zeros(2)}, p / PRE_STATE),
-            rf"{PRE_STATE}: tensor 'x' is not named '<feature>\.<statistic>'",
         ),
         (
             lambda p: (p / "policy_postprocessor.json").write_text("{oops"),
@@ -219,14 +230,11 @@ def test_node_times_must_lie_in_their_segment():
 @pytest.mark.parametrize(
     "step, message",
     [
+        ({"class": "subprocess.Popen", "config": {"args": ["touch", "{marker}"]}}, "subprocess.Popen"),
         (
-            {"class": "subprocess.Popen", "config": {"args": ["touch", "{marker}"]}},
-            "only processor steps from",
+            {"class": "lerobot.configs.default.DatasetConfig", "config": {}},
+            "lerobot.configs.default.DatasetConfig",
         ),
-        ({"class": "lerobot.configs.default.DatasetConfig", "config": {}}, "is not a LeRobot ProcessorStep"),
-        ({"registry_name": "no_such_step", "config": {}}, "is not a registered LeRobot processor step"),
-        ({"config": {}}, "needs 'registry_name' or 'class'"),
-        ("normalizer_processor", "expected an object"),
     ],
 )
 def test_processor_steps_must_be_lerobot_processors(ckpt, tmp_path, step, message):
@@ -240,29 +248,12 @@ def test_processor_steps_must_be_lerobot_processors(ckpt, tmp_path, step, messag
     pipeline["steps"].insert(1, step)
     (ckpt / "policy_postprocessor.json").write_text(json.dumps(pipeline))
     for load in (ForceMapPolicy.from_pretrained, load_policy):
-        with pytest.raises(ValueError, match=rf"policy_postprocessor\.json: steps\[1\].*{message}"):
+        with pytest.raises(
+            ValueError,
+            match=rf"policy_postprocessor\.json: steps\[1\]\.class: must name a ProcessorStep of lerobot .*{message}",
+        ):
             load(ckpt)
     assert not marker.exists()
-
-
-def test_an_unknown_processor_step_setting_names_the_file(ckpt):
-    """LeRobot builds a step as cls(**config) and reports a stray key without naming the file."""
-    pipeline = json.loads((ckpt / "policy_preprocessor.json").read_text())
-    device = next(
-        i for i, st in enumerate(pipeline["steps"]) if st.get("registry_name") == "device_processor"
-    )
-    pipeline["steps"][device]["config"]["bogus"] = 1
-    (ckpt / "policy_preprocessor.json").write_text(json.dumps(pipeline))
-    with pytest.raises(
-        ValueError,
-        match=rf"policy_preprocessor\.json: steps\[{device}\]\.config: unknown key\(s\) 'bogus' for "
-        r"DeviceProcessorStep \(it takes: device, float_dtype\)",
-    ):
-        ForceMapPolicy.from_pretrained(ckpt)
-    pipeline["steps"][device]["config"] = [1]
-    (ckpt / "policy_preprocessor.json").write_text(json.dumps(pipeline))
-    with pytest.raises(ValueError, match=rf"steps\[{device}\]\.config: expected an object, got list"):
-        ForceMapPolicy.from_pretrained(ckpt)
 
 
 def test_a_normalising_processor_step_is_refused_by_file(ckpt):
@@ -275,7 +266,7 @@ def test_a_normalising_processor_step_is_refused_by_file(ckpt):
     (ckpt / "policy_preprocessor.json").write_text(json.dumps(pipeline))
     with pytest.raises(
         ValueError,
-        match=rf"policy_preprocessor\.json: steps\[{norm}\]\.config\.norm_map must map every feature type",
+        match=rf"policy_preprocessor\.json: steps\[{norm}\]\.config\.norm_map: must map every feature type",
     ):
         ForceMapPolicy.from_pretrained(ckpt)
 
@@ -284,7 +275,7 @@ def test_a_non_finite_fps_or_dummy_is_refused(ckpt):
     """fps inf used to load and freeze the arm (clock at inf Hz); a NaN dummy made lerobot-train's loss NaN."""
     fitted_fps = json.loads((ckpt / "config.json").read_text())["fps"]
     _edit_config(ckpt, fps=float("inf"))
-    with pytest.raises(ValueError, match="ForceMapConfig.fps: a fitted policy needs a finite"):
+    with pytest.raises(ValueError, match=r"ForceMapConfig.fps: must be a finite number > 0 Hz, got inf"):
         ForceMapPolicy.from_pretrained(ckpt)
     _edit_config(ckpt, fps=fitted_fps)
     tensors = load_file(ckpt / "model.safetensors")

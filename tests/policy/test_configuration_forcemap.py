@@ -70,15 +70,17 @@ def test_registered_and_lerobot_defaults():
         # nulls of a hand-edited config.json passed as "off", or failed naming no field
         ({"reanchor": None}, "reanchor: must be true or false"),
         ({"check_task": None}, "check_task: must be true or false"),
-        ({"pose_key": None}, "pose_key: must be a feature key"),
-        ({"anchor_radius": None}, "anchor_radius: must be finite and > 0 m"),
-        ({"anchor_radius": float("inf")}, "anchor_radius: must be finite and > 0 m"),
+        ({"pose_key": None}, "pose_key: must be a string, got None"),
+        ({"anchor_radius": None}, "anchor_radius: must be a finite number > 0 m, got None"),
+        ({"anchor_radius": float("inf")}, "anchor_radius: must be a finite number > 0 m, got inf"),
         ({"static_tolerance": float("inf")}, "static_tolerance"),
-        ({"reanchor_tolerance": float("inf")}, "reanchor_tolerance: must be finite"),
-        ({"reanchor_blend_s": float("inf")}, "reanchor_blend_s: must be None or finite"),
-        ({"chunk_size": 10**7}, r"chunk_size: must be an integer in \[1, 360000\]"),
-        ({"control_fps": "x"}, "control_fps: must be None"),
-        ({"control_fps": 1e-300}, "control_fps: must be None"),  # the skill never advanced
+        ({"reanchor_tolerance": float("inf")}, "reanchor_tolerance: must be a finite number >= 0 m"),
+        ({"reanchor_blend_s": float("inf")}, "reanchor_blend_s: must be a finite number > 0 s or None"),
+        ({"chunk_size": 10**7}, r"chunk_size: must be an integer >= 1 and <= 360000"),
+        ({"control_fps": "x"}, "control_fps: must be a finite number >= 0.001 Hz or None"),
+        # the skill never advanced
+        ({"control_fps": 1e-300}, "control_fps: must be a finite number >= 0.001 Hz or None"),
+        ({"gripper_index": 7.5}, "gripper_index: must be an integer"),
         # the maps act on raw values: a normalising processor fed them other units (2.5 m off)
         ({"normalization_mapping": {"STATE": "MEAN_STD"}}, "normalization_mapping: must be IDENTITY"),
         (
@@ -146,12 +148,34 @@ def test_fit_settings_are_every_setting_but_the_runtime_ones():
     assert b.changed_fit_settings(a) == {"stiffness": (3000.0, 5000.0)}
 
 
-def test_segment_params_apply_overrides_to_one_segment():
+def test_skill_params_apply_overrides_to_one_segment():
     cfg = ForceMapConfig(
-        device="cpu", stiffness=3000.0, segment_overrides={1: {"stiffness": 5000.0, "n_nodes": 7}}
+        device="cpu",
+        stiffness=3000.0,
+        segment_overrides={1: {"stiffness": 5000.0, "n_nodes": 7, "gripper_lam": 0.5}},
     )
-    assert cfg.segment_params(0)["stiffness"] == 3000.0 and cfg.segment_params(0)["n_nodes"] is None
-    assert cfg.segment_params(1)["stiffness"] == 5000.0 and cfg.segment_params(1)["n_nodes"] == 7
+    params = cfg.skill_params()
+    assert params.segment(0).arm.stiffness == 3000.0 and params.segment(0).arm.n_nodes is None
+    assert params.segment(1).arm.stiffness == 5000.0 and params.segment(1).arm.n_nodes == 7
+    assert params.segment(0).gripper.gripper_lam == 0.001 and params.segment(1).gripper.gripper_lam == 0.5
+
+
+def test_skill_params_hold_every_fit_setting_of_the_config():
+    """One name, default and check per setting: the config's fit settings are the skill layer's."""
+    from dataclasses import fields
+
+    from lerobot_forcemap.skill.params import RULES, SkillParams
+    from lerobot_policy_forcemap.configuration_forcemap import RUNTIME_FIELDS
+
+    def flat(params: SkillParams) -> dict:
+        groups = [getattr(params, f.name) for f in fields(SkillParams) if f.name != "segment_overrides"]
+        return {f.name: getattr(g, f.name) for g in groups for f in fields(g)}
+
+    cfg = ForceMapConfig(device="cpu", episodes=[2], lam=0.5, segments="none", anchor_radius=0.2)
+    assert flat(cfg.skill_params()) == {name: getattr(cfg, name) for name in RULES}
+    assert flat(SkillParams()) == {name: getattr(ForceMapConfig(device="cpu"), name) for name in RULES}
+    fit_settings = (set(RULES) | {"segment_overrides", "episodes"}) - set(RUNTIME_FIELDS)
+    assert set(ForceMapConfig.fit_field_names()) == fit_settings
 
 
 def test_json_round_trip_keeps_every_field(tmp_path):
@@ -183,8 +207,9 @@ def test_json_round_trip_keeps_every_field(tmp_path):
 
 
 def test_lerobot_train_names_the_field_draccus_would_hide(tmp_path):
-    """draccus turns the config's ValueError into "Couldn't instantiate class ForceMapConfig"; the field's
-    message is logged before it, so ``lerobot-train --policy.n_nodes=-5`` still says what is wrong."""
+    """draccus turns the config's ValueError into "Couldn't instantiate class ForceMapConfig" and LeRobot
+    prints only that; the field's message is logged before it, so ``lerobot-train --policy.n_nodes=-5``
+    still says what is wrong."""
     import subprocess
     import sys
 
@@ -194,10 +219,14 @@ def test_lerobot_train_names_the_field_draccus_would_hide(tmp_path):
     run = subprocess.run(argv, capture_output=True, text=True, env={**os.environ, "HF_HUB_OFFLINE": "1"})
     assert run.returncode != 0
     assert "Couldn't instantiate class ForceMapConfig" in run.stderr + run.stdout
-    assert "ForceMapConfig.n_nodes: must be None or an integer >= 3, got -5" in run.stderr + run.stdout
+    assert "ForceMapConfig.n_nodes: must be an integer >= 3 or None, got -5" in run.stderr + run.stdout
 
 
-def test_a_bad_config_from_python_is_not_logged_twice(caplog):
+def test_a_bad_config_from_python_is_raised_and_logged_once(caplog):
+    """The log line is what LeRobot's scripts show (they print only draccus' wrapper); from Python the
+    raised error says the same once more."""
     with caplog.at_level("ERROR"), pytest.raises(ValueError, match="ForceMapConfig.n_nodes"):
         ForceMapConfig(device="cpu", n_nodes=-5)
-    assert not caplog.records  # the raised error says it; the log line is for draccus' callers only
+    assert [r.getMessage() for r in caplog.records] == [
+        "ForceMapConfig.n_nodes: must be an integer >= 3 or None, got -5"
+    ]

@@ -125,7 +125,9 @@ def test_a_hub_checkpoint_gets_the_local_checks(press_checkpoint, hub):
     pipeline = json.loads((remote / "policy_preprocessor.json").read_text())
     pipeline["steps"][0] = {"class": "subprocess.Popen", "config": {"args": ["true"]}}
     (remote / "policy_preprocessor.json").write_text(json.dumps(pipeline))
-    with pytest.raises(ValueError, match=r"steps\[0\]\.class 'subprocess\.Popen'"):
+    with pytest.raises(
+        ValueError, match=r"steps\[0\]\.class: must name a ProcessorStep .*'subprocess\.Popen'"
+    ):
         ForceMapPolicy.from_pretrained("someone/other")
 
 
@@ -252,13 +254,16 @@ def test_a_bad_dataset_repo_id_is_named_before_anything_is_uploaded(press_checkp
 
 
 def test_a_broken_processor_file_fails_before_anything_is_uploaded(press_checkpoint, tmp_path, hub):
+    """The processors are built (by LeRobot, which reports the truncated state file) before the upload."""
+    from safetensors import SafetensorError
+
     from lerobot_forcemap.cli.push import push_policy
 
     ckpt = tmp_path / "ckpt"
     shutil.copytree(press_checkpoint, ckpt)
     state = next(ckpt.glob("policy_preprocessor_step_*.safetensors"))
     state.write_bytes(state.read_bytes()[:100])
-    with pytest.raises(ValueError, match=rf"{state.name}: not a readable safetensors file"):
+    with pytest.raises(SafetensorError):
         push_policy(ckpt, REPO)
     hub.api.create_repo.assert_not_called()
     hub.api.upload_folder.assert_not_called()

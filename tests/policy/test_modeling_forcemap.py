@@ -154,7 +154,7 @@ def test_a_pose_of_the_wrong_shape_or_dtype_is_refused(policy):
     bad = {
         "stacked": (
             obs["observation.ee_pose"][:, None].repeat(1, 2, 1),
-            r"expected shape \(batch, width\), got \(1, 2, 7\)",
+            r"must have shape \(1, any\), got shape \(1, 2, 7\)",
         ),
         "wide": (
             torch.cat([obs["observation.ee_pose"], torch.zeros(1, 1)], dim=1),
@@ -162,7 +162,7 @@ def test_a_pose_of_the_wrong_shape_or_dtype_is_refused(policy):
         ),
         "integer": (
             obs["observation.ee_pose"].round().long(),
-            "expected floating-point values, got dtype int64",
+            r"must hold floating-point values, got dtype\('int64'\)",
         ),
         "tiny quaternion": (
             obs["observation.ee_pose"].clone().index_fill_(1, torch.arange(3, 7), 1e-7),
@@ -215,7 +215,7 @@ def test_control_fps_sets_the_rate_at_which_the_skill_advances(press_checkpoint)
     np.testing.assert_allclose(
         fast.predict_action_chunk(obs)[0, 1].numpy(), b[1, 0].numpy(), atol=1e-6
     )  # chunks follow the same clock
-    with pytest.raises(ValueError, match="control_fps: must be None .* or a rate in Hz, finite and >= 0.001"):
+    with pytest.raises(ValueError, match="control_fps: must be a finite number >= 0.001 Hz or None, got 0.0"):
         ForceMapConfig(control_fps=0.0)
     assert "control_fps" in type(plain.config).__dataclass_fields__
 
@@ -248,7 +248,10 @@ def test_a_fitted_field_given_before_the_fit_is_refused(press_dataset, field, va
     from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
 
     cfg = ForceMapConfig(**{field: value})
-    with pytest.raises(ValueError, match=rf"ForceMapConfig.{field}: filled in by the fit .* got"):
+    with pytest.raises(
+        ValueError,
+        match=rf"ForceMapConfig.{field}: must be left at its default .* filled in by the fit .* got",
+    ):
         ForceMapPolicy(cfg, dataset_meta=LeRobotDatasetMetadata("local/press", root=press_dataset))
 
 
@@ -308,11 +311,20 @@ def test_odd_tensors_are_read_or_refused_by_name(policy):
     assert torch.equal(policy.select_action(half), ref)  # bfloat16 has no NumPy type: read as float32
     policy.reset()
     meta = {**obs, "observation.ee_pose": torch.empty(1, 7, device="meta")}
-    with pytest.raises(ValueError, match="'observation observation.ee_pose': a tensor on the 'meta' device"):
+    with pytest.raises(ValueError, match="observation 'observation.ee_pose': a tensor on the 'meta' device"):
         policy.select_action(meta)
     policy.reset()
-    with pytest.raises(ValueError, match="batch 'task' has 2 entries for a batch of 1"):
+    with pytest.raises(ValueError, match=r"batch 'task': must be .* one per batch row \(1\), got \['press"):
         policy.select_action({**obs, "task": ["press the button", "press the button"]})
+    for task in (5, [5], None):  # a bare TypeError (len() of an int) before
+        policy.reset()
+        if task is None:
+            policy.select_action({**obs, "task": task})  # no task asked: nothing to check
+            continue
+        with pytest.raises(
+            ValueError, match=r"batch 'task': must be a string, or a list of strings with one per"
+        ):
+            policy.select_action({**obs, "task": task})
 
 
 def test_the_maps_stay_float64_and_load_state_dict_checks_them(press_checkpoint):
@@ -344,7 +356,9 @@ def test_a_refused_observation_at_a_segment_start_still_reanchors_on_retry(press
         fitted.select_action(_scene())
     bad = _scene(button=(0.52, 0.0, 0.027))
     bad["observation.environment_state"][0, 0] = float("nan")
-    with pytest.raises(ValueError, match="non-finite value"):
+    with pytest.raises(
+        ValueError, match=r"environment_state': must hold finite values only \(.* batch row 0, entry 0\)"
+    ):
         fitted.select_action(bad)
     fitted.select_action(moved)
     assert [e["segment"] for e in fitted.reanchor_log] == [anchored[0]]

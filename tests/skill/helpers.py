@@ -1,13 +1,20 @@
-"""Synthetic press-like demonstrations with known geometry and forces (no MuJoCo, no LeRobot)."""
+"""Synthetic press-like demonstrations with known geometry and forces, and skill settings (no MuJoCo,
+no LeRobot)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from lerobot_forcemap.skill.episodes import EpisodeArrays
+from lerobot_forcemap.skill.params import SkillParams
 
 OBJECT_NAMES = ["box_x", "box_y", "box_z", "box_qw", "box_qx", "box_qy", "box_qz", "box_extra"]
 TOOL_DOWN = np.array([0.0, 1.0, 0.0, 0.0])  # w x y z: 180 deg about x
+
+
+def params(**settings) -> SkillParams:
+    """Skill settings by their flat names (as ``ForceMapConfig`` and ``forcemap fit --set`` spell them)."""
+    return SkillParams.from_settings(settings)
 
 
 def min_jerk(s):

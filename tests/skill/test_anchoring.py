@@ -14,11 +14,10 @@ from lerobot_forcemap.skill.placement import (
     object_slots,
     place_skill,
 )
-from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
 
-from .helpers import OBJECT_NAMES, TOOL_DOWN, press_episode
+from .helpers import OBJECT_NAMES, TOOL_DOWN, params, press_episode
 
-CFG = ForceMapConfig(device="cpu", segments="dataset")
+CFG = params(segments="dataset")
 
 
 @pytest.fixture(scope="module")
@@ -30,11 +29,7 @@ def skill():
 
 def _place(skill, robot_pose, box_pose, **kw):
     return place_skill(
-        skill,
-        robot_pose=robot_pose,
-        object_pose={"box": np.asarray(box_pose, float)},
-        params_for=CFG.segment_params,
-        **kw,
+        skill, CFG, robot_pose=robot_pose, object_pose={"box": np.asarray(box_pose, float)}, **kw
     )
 
 
@@ -113,17 +108,15 @@ def test_free_segment_resolve_keeps_the_blended_path(skill):
 
 def test_unknown_object_is_a_clear_error(skill):
     with pytest.raises(ValueError, match="anchored to object 'box'"):
-        place_skill(skill, robot_pose=None, object_pose={}, params_for=CFG.segment_params)
+        place_skill(skill, CFG, robot_pose=None, object_pose={})
 
 
 def test_demo_scene_reproduces_the_base_frame_fit(skill):
     """Fitted in the box's frame and placed back in the demonstration's scene, the anchored segments are
     the maps a fit with no anchors gives in the base frame (the box is axis-aligned there, so the fit's
     per-axis force weights see the same axes)."""
-    rep = place_skill(
-        skill, robot_pose=None, object_pose=skill.demo_object_poses(), params_for=CFG.segment_params
-    )
-    unanchored_cfg = ForceMapConfig(device="cpu", segments="dataset", anchor_radius=1e-9)
+    rep = place_skill(skill, CFG, robot_pose=None, object_pose=skill.demo_object_poses())
+    unanchored_cfg = params(segments="dataset", anchor_radius=1e-9)
     base, report = fit_skill([press_episode(0)], unanchored_cfg, 20.0, OBJECT_NAMES)
     assert report.anchors == ("", "", "", "")
     for s in (1, 2, 3):  # the box-anchored ones (segment 0 starts at the robot and is re-solved)

@@ -6,9 +6,8 @@ import numpy as np
 import pytest
 
 from lerobot_forcemap.skill.episodes import episodes_from_columns, finger_force_scalar
-from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
 
-from .helpers import episode_columns, press_episode
+from .helpers import episode_columns, params, press_episode
 
 
 @pytest.fixture
@@ -18,7 +17,7 @@ def columns():
 
 def test_round_trip_of_synthetic_columns(columns):
     cols, feats = columns
-    eps = episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", episodes=[1, 0]))
+    eps = episodes_from_columns(cols, feats, params(), [1, 0])
     ref = [press_episode(1, obj=(0.52, 0.01, 0.03)), press_episode(0)]
     assert [e.episode for e in eps] == [1, 0]
     for got, want in zip(eps, ref, strict=True):
@@ -32,7 +31,7 @@ def test_round_trip_of_synthetic_columns(columns):
 def test_missing_feature_names_the_key(columns):
     cols, feats = columns
     with pytest.raises(ValueError, match="pose_key='observation.ee_pose'"):
-        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", pose_key="observation.ee_pose"))
+        episodes_from_columns(cols, feats, params(pose_key="observation.ee_pose"), [0])
 
 
 def test_missing_force_is_refused_unless_asked_for(columns):
@@ -41,22 +40,22 @@ def test_missing_force_is_refused_unless_asked_for(columns):
     with pytest.raises(
         ValueError, match=r"force_key='observation.wrench': the dataset has no such feature.*force_key=''"
     ):
-        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", force_key="observation.wrench"))
+        episodes_from_columns(cols, feats, params(force_key="observation.wrench"), [0])
     with pytest.raises(
         ValueError, match=r"env_state_key='observation.objects': the dataset has no such feature"
     ):
-        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", env_state_key="observation.objects"))
-    plain = episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", force_key=""))
+        episodes_from_columns(cols, feats, params(env_state_key="observation.objects"), [0])
+    plain = episodes_from_columns(cols, feats, params(force_key=""), [0])
     assert not plain[0].has_force and not plain[0].force.any()
     # an optional feature absent under its default name is fine (the synthetic press has no joints)
-    assert episodes_from_columns(cols, feats, ForceMapConfig(device="cpu"))[0].has_force
+    assert episodes_from_columns(cols, feats, params(), [0])[0].has_force
 
 
 def test_nan_names_feature_episode_and_frame(columns):
     cols, feats = columns
     cols["observation.force"][np.flatnonzero(cols["episode_index"] == 1)[7], 2] = np.nan
     with pytest.raises(ValueError, match=r"'observation.force', episode 1, frame 7"):
-        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", episodes=[0, 1]))
+        episodes_from_columns(cols, feats, params(), [0, 1])
 
 
 def test_fractional_segment_label_names_the_frame(columns):
@@ -68,15 +67,12 @@ def test_fractional_segment_label_names_the_frame(columns):
     with pytest.raises(
         ValueError, match=r"'segment_index', episode 1, frame 9: segment label 0.6 is not an integer"
     ):
-        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", episodes=[0, 1]))
+        episodes_from_columns(cols, feats, params(), [0, 1])
     cols["segment_index"][rows[9]] = np.nan
     with pytest.raises(ValueError, match=r"'segment_index', episode 1, frame 9: non-finite"):
-        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", episodes=[0, 1]))
+        episodes_from_columns(cols, feats, params(), [0, 1])
     cols["segment_index"][rows[9]] = 1.0  # whole numbers in a float column are fine
-    assert (
-        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", episodes=[1]))[0].segment_labels[9]
-        == 1
-    )
+    assert episodes_from_columns(cols, feats, params(), [1])[0].segment_labels[9] == 1
 
 
 def test_duplicated_timestamp_names_the_frame(columns):
@@ -84,32 +80,20 @@ def test_duplicated_timestamp_names_the_frame(columns):
     rows = np.flatnonzero(cols["episode_index"] == 0)
     cols["timestamp"][rows[12]] = cols["timestamp"][rows[11]]
     with pytest.raises(ValueError, match=r"episode 0, frame 12: timestamps must increase"):
-        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu"))
+        episodes_from_columns(cols, feats, params(), [0])
 
 
 def test_unknown_episode_lists_the_available_ones(columns):
     cols, feats = columns
     with pytest.raises(ValueError, match=r"episode\(s\) \[5\] not in the dataset \(it has \[0, 1\]\)"):
-        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu", episodes=[5]))
-
-
-@pytest.mark.parametrize("episodes", [[99], [0, 99]])
-def test_episode_missing_from_a_dataset_on_disk_is_named_before_loading(press_dataset, episodes, monkeypatch):
-    """Not LeRobot's "Instruction 'train' corresponds to no data!", nor a trip to the Hub."""
-    from lerobot_forcemap.skill.episodes import load_episodes
-
-    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
-    with pytest.raises(
-        ValueError, match=r"ForceMapConfig.episodes: episode\(s\) \[99\] not in the dataset .*0\.\.\d"
-    ):
-        load_episodes("local/press", str(press_dataset), ForceMapConfig(device="cpu", episodes=episodes))
+        episodes_from_columns(cols, feats, params(), [5])
 
 
 def test_zero_quaternion_is_rejected(columns):
     cols, feats = columns
     cols["action"][3, 3:7] = 0.0
     with pytest.raises(ValueError, match="episode 0, frame 3: zero quaternion"):
-        episodes_from_columns(cols, feats, ForceMapConfig(device="cpu"))
+        episodes_from_columns(cols, feats, params(), [0])
 
 
 def test_finger_force_points_towards_open():
@@ -117,21 +101,3 @@ def test_finger_force_points_towards_open():
     f3 = np.array([[3.0, 0.0, 0.0, 0.0, 4.0, 3.0]])
     assert finger_force_scalar(f3, ["f0x", "f0y", "f0z", "f1x", "f1y", "f1z"])[0] == pytest.approx(-4.0)
     assert finger_force_scalar(np.array([[2.0, -6.0]]), ["f0", "f1"])[0] == pytest.approx(-4.0)
-
-
-def test_a_data_file_that_disagrees_with_info_json_is_named_before_loading(press_dataset, tmp_path):
-    """forcemap fit reads the episodes itself: a hand-edited info.json is named, not a parquet-cast traceback."""
-    import json
-    import shutil
-
-    from lerobot_forcemap.skill.episodes import load_episodes
-
-    root = tmp_path / "press"
-    shutil.copytree(press_dataset, root)
-    info = json.loads((root / "meta" / "info.json").read_text())
-    info["features"]["observation.force"]["shape"] = [3]
-    (root / "meta" / "info.json").write_text(json.dumps(info))
-    with pytest.raises(
-        ValueError, match=r"feature 'observation.force' holds 6 values per frame, .* shape \[3\]"
-    ):
-        load_episodes("local/press", str(root), ForceMapConfig(device="cpu"))

@@ -9,16 +9,15 @@ import pytest
 
 from lerobot_forcemap.skill.fit import episode_streams, fit_skill, segment_episode, segmentation_config
 from lerobot_forcemap.skill.placement import place_skill
-from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
 
-from .helpers import OBJECT_NAMES, press_episode
+from .helpers import OBJECT_NAMES, params, press_episode
 
 K_DEMO = 2000.0  # the controller stiffness behind the synthetic demonstrations
 DEPTH = 0.02  # target depth below the surface while holding: F = K_DEMO * DEPTH = 40 N
 
 
 def _fit(episodes, **kw):
-    cfg = ForceMapConfig(device="cpu", **{"segments": "dataset", **kw})
+    cfg = params(**{"segments": "dataset", **kw})
     return fit_skill(episodes, cfg, 20.0, OBJECT_NAMES) + (cfg,)
 
 
@@ -106,9 +105,7 @@ def test_space_time_map_keeps_a_retracing_segment_in_order():
     err = {}
     for v in (0.0, 0.05):
         skill, _, cfg = _fit([ep], segments="none", stiffness=1e12, time_scale=v)
-        rep = place_skill(
-            skill, robot_pose=None, object_pose=skill.demo_object_poses(), params_for=cfg.segment_params
-        )
+        rep = place_skill(skill, cfg, robot_pose=None, object_pose=skill.demo_object_poses())
         d = np.linalg.norm(rep.actions_at(ep.times)[:, :3] - ep.pose[:, :3], axis=1)
         err[v] = float(np.sqrt(np.mean(d**2)))
     assert err[0.05] < 0.003  # follows the demonstration within 3 mm RMS
@@ -117,7 +114,7 @@ def test_space_time_map_keeps_a_retracing_segment_in_order():
 
 def test_dataset_labels_become_changepoints_and_bad_labels_are_named():
     ep = press_episode(0)
-    cfg = ForceMapConfig(device="cpu", segments="dataset")
+    cfg = params(segments="dataset")
     cp = segment_episode(ep, cfg, 20.0)
     np.testing.assert_array_equal(cp, [0, 40, 60, 80, ep.n_frames])
     bad = type(ep)(
@@ -137,7 +134,7 @@ def test_a_label_on_the_last_frame_only_ends_the_previous_segment(caplog):
     labels = ep.segment_labels.copy()
     labels[-1] = labels[-2] + 1
     last = type(ep)(**{**ep.__dict__, "segment_labels": labels})
-    cfg = ForceMapConfig(device="cpu", segments="dataset")
+    cfg = params(segments="dataset")
     with caplog.at_level("WARNING"):
         cp = segment_episode(last, cfg, 20.0)
     np.testing.assert_array_equal(cp, [0, 40, 60, 80, ep.n_frames])
@@ -147,22 +144,22 @@ def test_a_label_on_the_last_frame_only_ends_the_previous_segment(caplog):
 
 
 def test_segmentation_window_scales_with_fps():
-    cfg = ForceMapConfig(device="cpu")
+    cfg = params()
     assert segmentation_config(cfg, 166.0).window == 64  # the authors' setting at their rate
     assert segmentation_config(cfg, 166.0).grace == 4
     assert segmentation_config(cfg, 20.0).window == 8
     assert segmentation_config(cfg, 5.0).window == 5  # Savitzky-Golay order 4 needs >= 5
-    cp = segment_episode(press_episode(0), ForceMapConfig(device="cpu", segments="auto"), 20.0)
+    cp = segment_episode(press_episode(0), params(segments="auto"), 20.0)
     assert cp[0] == 0 and cp[-1] == press_episode(0).n_frames and len(cp) >= 2
 
 
 def test_changepoints_dropped_by_min_segment_s_are_reported(caplog):
     ep = press_episode(0)
-    found = segment_episode(ep, ForceMapConfig(device="cpu"), 20.0)
+    found = segment_episode(ep, params(), 20.0)
     assert len(found) > 2  # the press demo has changepoints to lose
     with caplog.at_level("WARNING"):
         # longer than the demo (4.3 s): no changepoint can stay
-        cp = segment_episode(ep, ForceMapConfig(device="cpu", min_segment_s=2.5), 20.0)
+        cp = segment_episode(ep, params(min_segment_s=2.5), 20.0)
     assert cp.tolist() == [0, ep.n_frames]
     assert (
         f"episode 0: min_segment_s=2.5 (50 frames) dropped the changepoint(s) at frame(s) {found[1:-1].tolist()}; "
@@ -174,10 +171,10 @@ def test_a_set_weight_for_a_stream_the_dataset_lacks_is_reported(caplog):
     ep = press_episode(0)  # the press demonstrations have no finger forces
     assert ep.finger_force is None
     with caplog.at_level("WARNING"):
-        episode_streams(ep, ForceMapConfig(device="cpu"))  # the default weight: skipped quietly
+        episode_streams(ep, params())  # the default weight: skipped quietly
     assert "stream_weights" not in caplog.text
     with caplog.at_level("WARNING"):
-        streams = episode_streams(ep, ForceMapConfig(device="cpu", stream_weights={"finger_force": 5.0}))
+        streams = episode_streams(ep, params(stream_weights={"finger_force": 5.0}))
     assert "finger_force" not in [s.name for s in streams]
     assert (
         "episode 0: stream_weights['finger_force']=5 is set, but the dataset has no 'observation.finger_force' "

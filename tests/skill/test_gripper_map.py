@@ -8,9 +8,8 @@ import pytest
 from lerobot_forcemap.skill.episodes import EpisodeArrays
 from lerobot_forcemap.skill.fit import fit_skill
 from lerobot_forcemap.skill.placement import place_skill
-from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
 
-from .helpers import OBJECT_NAMES, TOOL_DOWN
+from .helpers import OBJECT_NAMES, TOOL_DOWN, params
 
 FPS = 20.0
 
@@ -37,9 +36,9 @@ def _gripper_episode(gripper: np.ndarray, finger_force: np.ndarray | None = None
 
 def _reproduce(ep: EpisodeArrays, **kw) -> np.ndarray:
     """The reproduced gripper command at every control period of the demonstration."""
-    cfg = ForceMapConfig(device="cpu", segments="none", **kw)
+    cfg = params(segments="none", **kw)
     skill, _ = fit_skill([ep], cfg, FPS, OBJECT_NAMES)
-    rep = place_skill(skill, robot_pose=None, object_pose={}, params_for=cfg.segment_params)
+    rep = place_skill(skill, cfg, robot_pose=None, object_pose={})
     return rep.actions_at(ep.times)[:, 7]
 
 
