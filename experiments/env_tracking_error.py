@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import warnings
 
-import bench_setup  # noqa: F401  (one BLAS thread, line-buffered output; before NumPy)
+import benchmarks.bench_setup  # noqa: F401  (one BLAS thread, line-buffered output; before NumPy)
 import gymnasium as gym
 import numpy as np
 
