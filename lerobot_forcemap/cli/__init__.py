@@ -30,7 +30,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "lerobot_forcemap.data.convert",
         "convert lab-recorder / GBTI h5 files into a LeRobot v3 dataset",
     ),
-    "segment": ("lerobot_forcemap.data.segment", "segment a dataset's episodes and write the segments back"),
+    "segment": ("lerobot_forcemap.cli.segment", "segment a dataset's episodes and write the segments back"),
     "viz": (
         "lerobot_forcemap.data.viz",
         "show a dataset episode in Rerun with its force features and segments",
