@@ -32,7 +32,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     ),
     "segment": ("lerobot_forcemap.cli.segment", "segment a dataset's episodes and write the segments back"),
     "viz": (
-        "lerobot_forcemap.data.viz",
+        "lerobot_forcemap.cli.viz",
         "show a dataset episode in Rerun with its force features and segments",
     ),
     "fit": ("lerobot_forcemap.cli.fit", "fit a forcemap policy from a dataset and save a checkpoint"),
