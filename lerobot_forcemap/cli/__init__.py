@@ -27,7 +27,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "record scripted demonstrations of a sim task into a LeRobot dataset",
     ),
     "convert": (
-        "lerobot_forcemap.data.convert",
+        "lerobot_forcemap.cli.convert",
         "convert lab-recorder / GBTI h5 files into a LeRobot v3 dataset",
     ),
     "segment": ("lerobot_forcemap.cli.segment", "segment a dataset's episodes and write the segments back"),
