@@ -108,4 +108,3 @@ def _network_errors() -> tuple[type[BaseException], ...]:
     except ImportError:
         return ()
     return (httpx.HTTPError,)
-
