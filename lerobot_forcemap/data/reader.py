@@ -320,7 +320,10 @@ def read_columns(
     each once) of ``dataset`` (see :func:`to_meta`); shapes and row order in the module docstring.
     ``name``: what the episodes are called in errors (the setting that chose them)."""
     meta = to_meta(dataset)
-    chosen = _chosen_episodes(meta, episodes, name)
+    return _read_chosen(meta, _chosen_episodes(meta, episodes, name, non_empty=False), columns)
+
+
+def _read_chosen(meta: DatasetMeta, chosen: list[int], columns: Iterable[str]) -> dict[str, np.ndarray]:
     keys = [k for k in dict.fromkeys(columns) if k in meta.features and meta.features[k]["dtype"] != "video"]
     by_file: dict[str, list[int]] = {}
     for e in chosen:
@@ -331,8 +334,9 @@ def read_columns(
     return {k: np.concatenate([p[k] for p in parts]) for k in keys}
 
 
-def _chosen_episodes(meta: DatasetMeta, episodes: Sequence[int], name: str) -> list[int]:
-    chosen = check_int_list(name, episodes, low=0, non_empty=False)
+def _chosen_episodes(meta: DatasetMeta, episodes: Sequence[int], name: str, *, non_empty: bool) -> list[int]:
+    """``episodes`` as a list of distinct episode indices the dataset has, else a ValueError naming them."""
+    chosen = check_int_list(name, episodes, low=0, non_empty=non_empty)
     repeated = sorted({e for e in chosen if chosen.count(e) > 1})
     if repeated:
         raise ValueError(f"{name}: episode(s) {repeated} given more than once")
@@ -417,9 +421,9 @@ def read_episodes(
     """:func:`read_columns` of ``episodes`` (at least one) with the dataset's fps and features and the
     task strings of those episodes."""
     meta = to_meta(dataset)
-    check_int_list(name, episodes, low=0)  # non-empty: a fit needs a demonstration
-    data = read_columns(meta, episodes, columns, name=name)
-    tasks = sorted({t for e in episodes for t in meta.episodes[int(e)].tasks})
+    chosen = _chosen_episodes(meta, episodes, name, non_empty=True)
+    data = _read_chosen(meta, chosen, columns)
+    tasks = sorted({t for e in chosen for t in meta.episodes[e].tasks})
     return EpisodeColumns(data, meta.features, float(meta.fps), tasks, meta.root)
 
 

@@ -71,7 +71,6 @@ def log_episode(dataset: Any, episode: int, recording: Any) -> dict[str, int]:
     logged}``."""
     rr = _import_rerun()
     meta = to_meta(dataset)
-    _check_episode(meta, episode)
     keys = numeric_feature_keys(meta.features)
     columns = read_columns(meta, [episode], ["frame_index", "timestamp", *keys], name="--episode")
     frames = np.asarray(columns["frame_index"], dtype=np.int64)
