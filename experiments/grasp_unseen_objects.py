@@ -29,11 +29,11 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
-import pyarrow.parquet as pq  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 import lerobot_forcemap.envs as E  # noqa: E402
 from lerobot_forcemap import layout  # noqa: E402
+from lerobot_forcemap.data.reader import read_columns, read_meta  # noqa: E402
 from lerobot_forcemap.envs.demonstrators import make_demonstrator, run_demonstration  # noqa: E402
 from lerobot_forcemap.envs.record import EPISODES_FILE  # noqa: E402
 
@@ -44,12 +44,10 @@ GRASP_PHASES = ("reach", "descend", "grasp", "lift", "hold")
 
 def load_demos(task: str) -> tuple[list[dict[str, np.ndarray]], list[str]]:
     root = REPO / "datasets" / task
-    table = pq.read_table(root / "data" / "chunk-000" / "file-000.parquet")
-    cols = {
-        k: np.stack(table.column(k).to_numpy(zero_copy_only=False))
-        for k in (layout.ACTION, layout.OBS_ENV_STATE, layout.DEMO_PHASE)
-    }
-    episode = table.column("episode_index").to_numpy()
+    meta = read_meta(root)
+    keys = (layout.ACTION, layout.OBS_ENV_STATE, layout.DEMO_PHASE)
+    cols = read_columns(meta, list(range(meta.total_episodes)), [*keys, "episode_index"])
+    episode = cols.pop("episode_index")
     phases = json.loads((root / "meta" / EPISODES_FILE).read_text())["phases"]
     demos = [{k: v[episode == e] for k, v in cols.items()} for e in np.unique(episode)]
     return demos, phases

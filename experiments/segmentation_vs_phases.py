@@ -37,7 +37,7 @@ def phase_hits(dataset: Path, overrides: list[str]) -> tuple[list[tuple[str, str
     if not switches:
         raise ValueError(f"--datasets {dataset}: no demo_phase column (record it with `forcemap record`)")
     cfg = make_config(sorted(switches), overrides)
-    episodes, _, fps, tasks = load_episodes(f"local/{dataset.name}", str(dataset), cfg)
+    episodes, _, fps, tasks = load_episodes(dataset, cfg)
     params = cfg.skill_params()
     window = segmentation_config(params, fps).window
     fits = [

@@ -35,7 +35,7 @@ from torch import Tensor, nn
 
 from lerobot_forcemap._validation import check_array, fail
 from lerobot_forcemap.data.hub import check_repo_id
-from lerobot_forcemap.data.reader import read_episodes
+from lerobot_forcemap.data.reader import read_episodes, to_meta
 from lerobot_forcemap.skill.episodes import EpisodeArrays, episodes_from_columns, needed_columns
 from lerobot_forcemap.skill.fit import FitReport, fit_skill
 from lerobot_forcemap.skill.model import FittedSkill
@@ -61,15 +61,12 @@ logger = logging.getLogger(__name__)
 _HUB_KWARGS = ("force_download", "token", "cache_dir", "local_files_only", "revision")
 
 
-def load_episodes(
-    repo_id: str, root: str | None, config: ForceMapConfig
-) -> tuple[list[EpisodeArrays], dict, float, list[str]]:
-    """Read ``config.episodes`` of a LeRobot dataset; returns (episodes, features, fps, the task
-    strings of those episodes)."""
+def load_episodes(dataset: Any, config: ForceMapConfig) -> tuple[list[EpisodeArrays], dict, float, list[str]]:
+    """Read ``config.episodes`` of a LeRobot dataset (a folder, a ``LeRobotDatasetMetadata`` or a
+    ``DatasetMeta``: see ``lerobot_forcemap.data.reader.to_meta``); returns (episodes, features, fps,
+    the task strings of those episodes)."""
     params = config.skill_params()
-    data = read_episodes(
-        repo_id, root, config.episodes, needed_columns(params), name="ForceMapConfig.episodes"
-    )
+    data = read_episodes(dataset, config.episodes, needed_columns(params), name="ForceMapConfig.episodes")
     episodes = episodes_from_columns(data.columns, data.features, params, config.episodes)
     return episodes, data.features, data.fps, data.tasks
 
@@ -100,8 +97,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         self._forward_calls = 0  # training steps seen: the second one says it changes nothing
         if dataset_meta is not None and config.pretrained_path is None:
             config.check_unfitted()
-            root = None if dataset_meta.root is None else str(dataset_meta.root)
-            self.fit_dataset(str(dataset_meta.repo_id), root)
+            self.fit_dataset(dataset_meta)  # what lerobot-train or forcemap fit already read
         else:
             if dataset_meta is not None:
                 _refuse_another_task(config, dataset_meta)
@@ -109,9 +105,10 @@ class ForceMapPolicy(PreTrainedPolicy):
         self.reset()
 
     # ---- fitting -------------------------------------------------------------------------------------
-    def fit_dataset(self, repo_id: str, root: str | None) -> FitReport:
-        """Fit from ``config.episodes`` of the LeRobot dataset (repo_id, root); fills the config's fitted fields."""
-        episodes, features, fps, tasks = load_episodes(repo_id, root, self.config)
+    def fit_dataset(self, dataset: Any) -> FitReport:
+        """Fit from ``config.episodes`` of a LeRobot dataset (a folder, a ``LeRobotDatasetMetadata`` or a
+        ``DatasetMeta``); fills the config's fitted fields."""
+        episodes, features, fps, tasks = load_episodes(dataset, self.config)
         env_key = self.config.env_state_key
         names = list(features[env_key].get("names") or []) if env_key in features else []
         return self.fit_episodes(episodes, fps, names, tasks)
@@ -417,7 +414,7 @@ def _refuse_another_task(config: ForceMapConfig, dataset_meta: Any) -> None:
     the checkpoint's maps stay as they are, so another task's dataset is an error, not a no-op."""
     if not config.dataset_tasks:
         return
-    tasks = sorted(str(t) for t in dataset_meta.tasks.index)
+    tasks = sorted(to_meta(dataset_meta).tasks)
     if not set(tasks) & set(config.dataset_tasks):
         raise ValueError(
             f"{config.pretrained_path}: fitted on demonstrations of {config.dataset_tasks}, but the "

@@ -124,13 +124,13 @@ def derive_env_state_dataset(
     Raises ValueError if the source lacks environment_state or an extra's feature, or has NaNs there.
     """
     from lerobot.datasets.dataset_tools import modify_features
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     from lerobot_env_forcemap.env_state import (
         ENV_STATE_EXTRA_KEYS,
         extended_env_state_names,
         parse_env_state_extras,
     )
+    from lerobot_forcemap.data.reader import lerobot_dataset, read_columns, to_meta
     from lerobot_forcemap.data.schema import require_dataset_root
 
     source, out = require_dataset_root(source, "source"), Path(out)
@@ -142,16 +142,18 @@ def derive_env_state_dataset(
             raise ValueError(f"{out} exists; pass overwrite=True to replace it")
         shutil.rmtree(out)
     repo_id = repo_id or f"local/{source.name}_env_{'_'.join(extras)}"
-    ds = LeRobotDataset(repo_id, root=source)
-    features = ds.meta.features
+    ds = lerobot_dataset(source, repo_id=repo_id)
+    meta = to_meta(ds)
+    features = meta.features
     keys = [layout.OBS_ENV_STATE, *(ENV_STATE_EXTRA_KEYS[e] for e in extras)]
     for k in keys:
         if k not in features:
             raise ValueError(
                 f"derive_env_state_dataset: {source} has no feature {k!r} (extras {list(extras)})"
             )
-    table = ds.hf_dataset.with_format("numpy")
-    cols = [np.asarray(table[k], dtype=np.float32).reshape(len(table), -1) for k in keys]
+    table = read_columns(meta, list(range(meta.total_episodes)), [*keys, "episode_index", "frame_index"])
+    rows = len(table["episode_index"])
+    cols = [np.asarray(table[k], dtype=np.float32).reshape(rows, -1) for k in keys]
     for k, c in zip(keys, cols, strict=True):
         bad = np.argwhere(~np.isfinite(c))
         if len(bad):

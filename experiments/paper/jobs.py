@@ -149,31 +149,25 @@ class DemoEpisode:
     fps: float
 
 
-def _read_columns(root: Path, keys: Sequence[str]) -> dict[str, np.ndarray]:
-    import pyarrow.parquet as pq
+def _read_columns(meta: Any, keys: Sequence[str]) -> dict[str, np.ndarray]:
+    """The ``keys`` columns of every episode as float64 ``(rows, width)``."""
+    from lerobot_forcemap.data.reader import read_columns
 
-    files = sorted((root / "data").glob("*/*.parquet"))
-    if not files:
-        raise ValueError(f"{root}: no data/*/*.parquet (not a LeRobot v3 dataset)")
-    parts: dict[str, list[np.ndarray]] = {k: [] for k in keys}
-    for path in files:
-        table = pq.read_table(path, columns=list(keys))
-        for k in keys:
-            values = table.column(k).to_numpy(zero_copy_only=False)
-            arr = np.stack(values) if values.dtype == object else values
-            parts[k].append(np.asarray(arr, dtype=np.float64).reshape(len(arr), -1))
-    return {k: np.concatenate(v) for k, v in parts.items()}
+    cols = read_columns(meta, list(range(meta.total_episodes)), keys)
+    return {k: np.asarray(v, dtype=np.float64).reshape(len(v), -1) for k, v in cols.items()}
 
 
 def load_demo_episode(dataset: str | Path, episode: int) -> DemoEpisode:
     """Actions and environment state of one episode of a LeRobot v3 dataset (read with pyarrow)."""
+    from lerobot_forcemap.data.reader import read_meta
+
     root = Path(dataset)
-    info = json.loads((root / "meta" / "info.json").read_text())
-    features = info["features"]
+    meta = read_meta(root)
+    features = meta.features
     for key in (layout.ACTION, layout.OBS_ENV_STATE):
         if key not in features:
             raise ValueError(f"{root}: feature {key!r} missing (needed to replay a demonstration)")
-    cols = _read_columns(root, [layout.ACTION, layout.OBS_ENV_STATE, "episode_index", "frame_index"])
+    cols = _read_columns(meta, [layout.ACTION, layout.OBS_ENV_STATE, "episode_index", "frame_index"])
     rows = np.flatnonzero(cols["episode_index"][:, 0].astype(int) == int(episode))
     if len(rows) == 0:
         have = sorted(set(cols["episode_index"][:, 0].astype(int).tolist()))
@@ -184,7 +178,7 @@ def load_demo_episode(dataset: str | Path, episode: int) -> DemoEpisode:
         actions=cols[layout.ACTION][rows],
         env_state=cols[layout.OBS_ENV_STATE][rows],
         state_names=tuple(features[layout.OBS_ENV_STATE].get("names") or ()),
-        fps=float(info["fps"]),
+        fps=float(meta.fps),
     )
 
 
@@ -216,11 +210,12 @@ def demo_force_records(dataset: str | Path) -> list[dict[str, Any]]:
 def demo_phase_switches(dataset: str | Path) -> dict[int, Array]:
     """Per episode, the frames where the scripted demonstrator's phase (``demo_phase``) changes: the
     reference events for scoring segmentation in simulation (SPEC §2). ``{}`` without that column."""
-    root = Path(dataset)
-    features = json.loads((root / "meta" / "info.json").read_text())["features"]
-    if layout.DEMO_PHASE not in features:
+    from lerobot_forcemap.data.reader import read_meta
+
+    meta = read_meta(dataset)
+    if layout.DEMO_PHASE not in meta.features:
         return {}
-    cols = _read_columns(root, [layout.DEMO_PHASE, "episode_index", "frame_index"])
+    cols = _read_columns(meta, [layout.DEMO_PHASE, "episode_index", "frame_index"])
     episode = cols["episode_index"][:, 0].astype(int)
     out = {}
     for e in np.unique(episode):
@@ -802,7 +797,7 @@ def auto_stream_weights(dataset: str | Path, episode: int, overrides: Sequence[s
 
     cfg = make_config([episode], overrides)
     root = Path(dataset)
-    episodes, _, fps, _ = load_episodes(f"local/{root.name}", str(root), cfg)
+    episodes, _, fps, _ = load_episodes(root, cfg)
     params = cfg.skill_params()
     streams = episode_streams(episodes[0], params)
     weights = auto_weights(streams, segmentation_config(params, fps))

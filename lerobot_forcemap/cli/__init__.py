@@ -27,12 +27,12 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "record scripted demonstrations of a sim task into a LeRobot dataset",
     ),
     "convert": (
-        "lerobot_forcemap.data.convert",
+        "lerobot_forcemap.cli.convert",
         "convert lab-recorder / GBTI h5 files into a LeRobot v3 dataset",
     ),
-    "segment": ("lerobot_forcemap.data.segment", "segment a dataset's episodes and write the segments back"),
+    "segment": ("lerobot_forcemap.cli.segment", "segment a dataset's episodes and write the segments back"),
     "viz": (
-        "lerobot_forcemap.data.viz",
+        "lerobot_forcemap.cli.viz",
         "show a dataset episode in Rerun with its force features and segments",
     ),
     "fit": ("lerobot_forcemap.cli.fit", "fit a forcemap policy from a dataset and save a checkpoint"),
@@ -108,4 +108,3 @@ def _network_errors() -> tuple[type[BaseException], ...]:
     except ImportError:
         return ()
     return (httpx.HTTPError,)
-

@@ -26,7 +26,7 @@ REPO_ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_DATASET = REPO_ROOT / "datasets" / "press"
 
 
-def main(argv: list[str] | None = None) -> int:
+def _parser() -> argparse.ArgumentParser:
     from lerobot_forcemap.cli.fit import add_set_argument
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -37,8 +37,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=1000, help="first evaluation seed (default 1000)")
     parser.add_argument("--demo-episode", type=int, default=0, help="the one demonstration to learn from")
     add_set_argument(parser)
-    args = parser.parse_args(argv)
+    return parser
 
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
     t_start = time.perf_counter()
     out = Path(args.out)
     dataset = Path(args.dataset)
@@ -49,11 +52,17 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 2
-
     quiet_torchcodec_warning()
+    _fit(args, dataset, out)
+    doc, records = _evaluate(args, dataset, out)
+    _report(doc, records, out)
+    print(f"demo wall time {time.perf_counter() - t_start:.1f} s")
+    return 0
+
+
+def _fit(args: argparse.Namespace, dataset: Path, out: Path) -> None:
+    """Step 1: the one-shot fit from ``--demo-episode``, saved to ``out/policy``; its segments printed."""
     from lerobot_forcemap.cli.fit import fit_policy
-    from lerobot_forcemap.evaluation.evaluate import evaluate_policy, evaluation_document
-    from lerobot_forcemap.evaluation.report import make_report, markdown_table
 
     print(f"[1/3] fit one-shot from episode {args.demo_episode} of {dataset}")
     fit = fit_policy(
@@ -70,6 +79,11 @@ def main(argv: list[str] | None = None) -> int:
         f"      stiffness k = {cfg.stiffness:g} N/m, delta = {cfg.delta:g} m, fit {1e3 * fit.fit_s:.0f} ms incl. first-use imports"
     )
 
+
+def _evaluate(args: argparse.Namespace, dataset: Path, out: Path) -> tuple[dict, list[dict]]:
+    """Step 2: ``--episodes`` rollouts on new scenes, one video; the eval document in ``out/eval.json``."""
+    from lerobot_forcemap.evaluation.evaluate import evaluate_policy, evaluation_document
+
     print(
         f"[2/3] evaluate {args.episodes} episodes of {args.task} (seeds {args.seed}..{args.seed + args.episodes - 1})"
     )
@@ -78,6 +92,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     doc = evaluation_document(out / "policy", args.task, args.seed, records, dataset, demo_trace=True)
     (out / "eval.json").write_text(json.dumps(doc, indent=1))
+    return doc, records
+
+
+def _report(doc: dict, records: list[dict], out: Path) -> None:
+    """Step 3: the table against the demonstrations, the report and plots in ``out``."""
+    from lerobot_forcemap.evaluation.report import make_report, markdown_table
 
     print("[3/3] report")
     result = make_report([doc], out)
@@ -94,8 +114,6 @@ def main(argv: list[str] | None = None) -> int:
     print()
     for f in result["files"] + [r["video"] for r in records if "video" in r] + [str(out / "eval.json")]:
         print("wrote", f)
-    print(f"demo wall time {time.perf_counter() - t_start:.1f} s")
-    return 0
 
 
 if __name__ == "__main__":

@@ -3,12 +3,14 @@
     forcemap fit --dataset datasets/press --out outputs/press_policy [--episodes 0 1 ...] [--set stiffness=2500 ...]
 
 Runs in-process the code path of ``lerobot-train --policy.type=forcemap --steps=1`` (LeRobot 0.6.1):
-``make_policy(config, ds_meta=LeRobotDatasetMetadata(...))`` builds the policy, whose constructor
-segments and fits the chosen episodes, then ``save_pretrained`` writes ``config.json`` +
-``model.safetensors`` and ``make_pre_post_processors(...)`` the processor files, i.e. the contents of
-``lerobot-train``'s ``checkpoints/last/pretrained_model`` — loadable by ``lerobot-eval --policy.path=OUT``.
-It skips ``lerobot-train``'s data loader, optimiser step and training state (nothing to train), and
-adds ``fit_report.json`` (segments, anchors, EM diagnostics).
+``make_policy(config, ds_meta=...)`` builds the policy, whose constructor segments and fits the chosen
+episodes, then ``save_pretrained`` writes ``config.json`` + ``model.safetensors`` and
+``make_pre_post_processors(...)`` the processor files, i.e. the contents of ``lerobot-train``'s
+``checkpoints/last/pretrained_model`` — loadable by ``lerobot-eval --policy.path=OUT``. The dataset's
+metadata is read once, by ``lerobot_forcemap.data.reader.read_meta`` (what ``make_policy`` needs of a
+``LeRobotDatasetMetadata``: features, stats, repo id, root), and the policy reads the chosen episodes'
+columns through it. It skips ``lerobot-train``'s data loader, optimiser step and training state (nothing
+to train), and adds ``fit_report.json`` (segments, anchors, EM diagnostics).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from lerobot_forcemap.data.reader import DatasetMeta, read_meta
 from lerobot_forcemap.data.schema import require_dataset_root
 
 __all__ = ["FitResult", "make_config", "fit_policy", "add_arguments", "run"]
@@ -93,16 +96,12 @@ def fit_policy(
     overwrite: bool = False,
 ) -> FitResult:
     """Fit and save (see the module docstring). ``config`` (a ForceMapConfig) replaces episodes/overrides."""
-    from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
+    out, root = _check_paths(dataset, out, overwrite=overwrite)  # before the heavy imports below
     from lerobot.policies.factory import make_policy, make_pre_post_processors
 
-    out = Path(out)
-    if out.exists() and any(out.iterdir()) and not overwrite:
-        raise ValueError(f"{out} exists and is not empty; give --overwrite (overwrite=True) to replace it")
-    root = require_dataset_root(dataset, "--dataset")
     cfg = config if config is not None else make_config(episodes, overrides)
     t0 = time.perf_counter()
-    meta = LeRobotDatasetMetadata(repo_id or f"local/{root.name}", root=root)
+    meta = read_meta(root, repo_id=repo_id, name="--dataset")
     t1 = time.perf_counter()
     policy = make_policy(cfg, ds_meta=meta)
     preprocessor, postprocessor = make_pre_post_processors(cfg, dataset_stats=meta.stats)
@@ -111,11 +110,25 @@ def fit_policy(
     policy.save_pretrained(out)
     preprocessor.save_pretrained(out)
     postprocessor.save_pretrained(out)
-    report = policy.fit_report
+    _write_fit_report(out, meta, cfg, policy.fit_report)
+    t3 = time.perf_counter()
+    return FitResult(out=out, policy=policy, load_s=t1 - t0, fit_s=t2 - t1, save_s=t3 - t2)
+
+
+def _check_paths(dataset: str | Path, out: str | Path, *, overwrite: bool) -> tuple[Path, Path]:
+    """``(out, dataset)`` as Paths once ``out`` may be written (absent, empty, or ``overwrite``) and
+    ``dataset`` holds a LeRobot dataset; ``ValueError`` naming the flag otherwise."""
+    out = Path(out)
+    if out.exists() and any(out.iterdir()) and not overwrite:
+        raise ValueError(f"{out} exists and is not empty; give --overwrite (overwrite=True) to replace it")
+    return out, require_dataset_root(dataset, "--dataset")
+
+
+def _write_fit_report(out: Path, meta: DatasetMeta, cfg: Any, report: Any) -> None:
     (out / "fit_report.json").write_text(
         json.dumps(
             {
-                "dataset": str(Path(root).resolve()),  # forcemap eval's default comparison, from any cwd
+                "dataset": str(meta.root.resolve()),  # forcemap eval's default comparison, from any cwd
                 "dataset_repo_id": meta.repo_id,  # forcemap push's model card links it unless local/...
                 "episodes": list(report.episodes),
                 "fps": cfg.fps,
@@ -126,8 +139,6 @@ def fit_policy(
             indent=2,
         )
     )
-    t3 = time.perf_counter()
-    return FitResult(out=out, policy=policy, load_s=t1 - t0, fit_s=t2 - t1, save_s=t3 - t2)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -42,6 +42,12 @@ def push_policy(
     temporary folder with a model card and uploaded in a single commit: a bad file fails before
     anything reaches the Hub, and the repo never holds a policy without its processors.
     """
+    check_repo_id(repo_id)
+    if dataset_repo_id is not None:
+        check_repo_id(dataset_repo_id, "--dataset-repo-id")
+    path = Path(path)
+    if not (path / "config.json").is_file():
+        raise ValueError(f"{path}: not a policy checkpoint folder (no config.json)")
     import tempfile
 
     from huggingface_hub import HfApi
@@ -50,12 +56,6 @@ def push_policy(
     from lerobot_policy_forcemap.checkpoint import check_processor_files
     from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
 
-    check_repo_id(repo_id)
-    if dataset_repo_id is not None:
-        check_repo_id(dataset_repo_id, "--dataset-repo-id")
-    path = Path(path)
-    if not (path / "config.json").is_file():
-        raise ValueError(f"{path}: not a policy checkpoint folder (no config.json)")
     policy = ForceMapPolicy.from_pretrained(path)
     check_processor_files(path, required=True)
     pre, post = make_pre_post_processors(policy.config, pretrained_path=str(path))

@@ -2,7 +2,7 @@
 
 Modules (import them directly; this package imports nothing heavy):
 
-- ``schema``     feature dicts (SPEC §3 names from ``layout``), frame/episode validation, dataset cards
+- ``schema``     feature dicts (names from ``layout``), frame/episode validation, dataset cards
 - ``recorder``   lab-recorder h5 and GBTI file reader (pure h5py/NumPy)
 - ``transforms`` tare, tool->base rotation, duplicate-timestamp cleaning, alignment/resampling
 - ``convert``    ``forcemap convert``: h5 -> LeRobot dataset

@@ -21,13 +21,13 @@ duplicate timestamps, warnings) goes to ``meta/forcemap_sources.json``; units an
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import json
 import shutil
 import warnings
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass, field, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +35,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from lerobot_forcemap import layout
+from lerobot_forcemap._validation import check_real, fail, is_real
 from lerobot_forcemap.data.recorder import GbtiKey, Recording, gbti_keys, iter_gbti_demos, read_recording
 from lerobot_forcemap.data.schema import add_episode, dataset_features, write_dataset_card
 from lerobot_forcemap.data.staging import check_output, partial_dir, replace_dir
@@ -59,8 +60,6 @@ __all__ = [
     "convert_recordings",
     "convert_gbti",
     "guess_task",
-    "add_arguments",
-    "run",
 ]
 
 # 50 Hz: several samples across a 20-60 ms contact transient, 3-5x the 10-20 Hz control rate of the
@@ -231,94 +230,14 @@ def convert_episodes(
     is written next to it (``.<name>.partial``) and replaces it only once complete, so a failed run
     leaves an existing ``out`` as it was.
     """
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lazy: heavy import
-
     out = Path(out)
-    if not float(fps).is_integer() or fps <= 0:
-        raise ValueError(f"fps (--fps) must be a positive integer (LeRobot stores an int), got {fps}")
+    if not (is_real(fps) and float(fps).is_integer() and fps > 0):
+        fail("fps (--fps)", "be a positive integer (LeRobot stores an int)", fps)
     fps = int(fps)
-    if not (np.isfinite(gripper_full_scale) and gripper_full_scale > 0):  # a flag, not the data's fault
-        raise ValueError(f"--gripper-full-scale must be a positive number, got {gripper_full_scale}")
+    # a bad scale is the flag's fault, not the first recording's
+    check_real("--gripper-full-scale", gripper_full_scale, low=0, low_open=True)
     check_output(out, overwrite=overwrite)
     work = partial_dir(out)
-
-    import datasets as hf_datasets
-
-    # LeRobot's save_episode runs a `datasets` map with its own progress bar per episode; ours is enough.
-    bars_were_on = hf_datasets.is_progress_bar_enabled()
-    hf_datasets.disable_progress_bars()
-    dataset = None
-    features: dict[str, Any] = {}
-    finger = False
-    records: list[dict[str, Any]] = []
-    n_frames = 0
-    try:
-        for index, src in enumerate(
-            tqdm(sources, total=total, desc="convert", unit="episode", disable=not progress)
-        ):
-            rec = src.recording
-            if dataset is None:
-                finger = rec.finger_force is not None
-                features = dataset_features(
-                    layout.state_names(layout.UR5E_JOINT_NAMES),
-                    finger_force_names=FINGER_FORCE_NAMES if finger else None,
-                    source_timestamp=True,
-                )
-                dataset = LeRobotDataset.create(
-                    repo_id, fps=fps, features=features, root=work, robot_type=robot_type, use_videos=False
-                )
-            if (rec.finger_force is not None) != finger:
-                raise ValueError(
-                    f"episode {index} ({src.source}): finger force {'missing' if finger else 'present'}, unlike "
-                    f"the first episode; convert these recordings into separate datasets"
-                )
-            try:
-                # repeated timestamps (merged later by align_recording) must not shrink the median step
-                distinct = np.unique(rec.wrench_time)
-                if len(distinct) < 2:
-                    raise ValueError(
-                        f"stream 'wrench': {len(distinct)} distinct timestamp(s), need at least 2"
-                    )
-                rate = float(1.0 / np.median(np.diff(distinct)))
-                lowpass = resolve_lowpass_hz(force_lowpass_hz, fps, rate)
-                a = align_recording(
-                    rec,
-                    fps=fps,
-                    tare=tare,
-                    gripper_full_scale=gripper_full_scale,
-                    force_lowpass_hz=lowpass,
-                    on_duplicate=on_duplicate,
-                )
-            except ValueError as err:
-                raise ValueError(f"episode {index} ({src.source}): {err}") from None
-            if rec.gripper is None:
-                msg = f"no gripper stream: observation.state gripper and action gripper set to {layout.GRIPPER_OPEN} (open)"
-                warnings.warn(f"{rec.name}: {msg}", stacklevel=2)
-                a = _with_warning(a, msg)
-            arrays = episode_arrays(a, finger_force=finger)
-            n = add_episode(dataset, arrays, src.task, episode=f"{index} ({rec.name})")
-            records.append(_episode_record(index, src, a, n, lowpass))
-            n_frames += n
-        if dataset is None:
-            raise ValueError("no recordings to convert")
-        dataset.finalize()
-        not_converted = _not_converted(records)
-        if not_converted:  # known parts of the format, dropped on purpose: said once, not per file
-            warnings.warn(
-                f"{not_converted} recorded in {sum(bool(r['not_converted']) for r in records)} of "
-                f"{len(records)} episode(s): not converted (the dataset holds joint positions only); "
-                f"listed per episode in {SOURCES_FILE} and in the card",
-                stacklevel=2,
-            )
-    except BaseException:
-        if dataset is not None:  # close the writers, then remove the half-written dataset
-            dataset.finalize()
-        shutil.rmtree(work, ignore_errors=True)
-        raise
-    finally:
-        if bars_were_on:
-            hf_datasets.enable_progress_bars()
-
     settings = {
         "fps": fps,
         "tare": tare,
@@ -327,23 +246,134 @@ def convert_episodes(
         "wrench_sign": LAB_WRENCH_SIGN,
         "on_duplicate_timestamps": on_duplicate,
     }
-    (work / SOURCES_FILE).write_text(json.dumps({"settings": settings, "episodes": records}, indent=1))
-    _write_card(
-        work,
-        records,
-        features,
-        fps=fps,
-        title=title,
-        source_text=source_text,
-        robot=robot,
-        repo_id=repo_id,
-        extra=card_extra,
-        finger_force_units=finger_force_units,
-        tare=tare,
-        gripper_full_scale=gripper_full_scale,
-    )
+    align = partial(_align_source, fps=fps, tare=tare, force_lowpass_hz=force_lowpass_hz,
+                    gripper_full_scale=gripper_full_scale, on_duplicate=on_duplicate)  # fmt: skip
+    sources = tqdm(sources, total=total, desc="convert", unit="episode", disable=not progress)
+    try:
+        features, records, n_frames = _write_dataset(sources, work, align, repo_id, fps, robot_type)
+        (work / SOURCES_FILE).write_text(json.dumps({"settings": settings, "episodes": records}, indent=1))
+        text = dict(title=title, source_text=source_text, robot=robot, extra=card_extra)
+        _write_card(
+            work, records, features, settings, repo_id=repo_id, finger_force_units=finger_force_units, **text
+        )
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)  # the half-written dataset
+        raise
     replace_dir(out, work)
     return ConversionResult(out, repo_id, fps, len(records), n_frames, records)
+
+
+def _write_dataset(
+    sources: Iterable[EpisodeSource],
+    work: Path,
+    align: Callable[[int, EpisodeSource], tuple[AlignedRecording, float | None]],
+    repo_id: str,
+    fps: int,
+    robot_type: str,
+) -> tuple[dict[str, Any], list[dict[str, Any]], int]:
+    """Every source as one episode of a new LeRobot dataset at ``work`` (created with the first);
+    returns its features, the per-episode records and the number of frames."""
+    dataset = None
+    features: dict[str, Any] = {}
+    finger = False
+    records: list[dict[str, Any]] = []
+    n_frames = 0
+    with _datasets_progress_bars_off():
+        try:
+            for index, src in enumerate(sources):
+                if dataset is None:
+                    finger = src.recording.finger_force is not None
+                    features, dataset = _create_dataset(work, repo_id, fps, robot_type, finger=finger)
+                if (src.recording.finger_force is not None) != finger:
+                    raise ValueError(
+                        f"episode {index} ({src.source}): finger force {'missing' if finger else 'present'}, "
+                        "unlike the first episode; convert these recordings into separate datasets"
+                    )
+                aligned, lowpass = align(index, src)
+                arrays = episode_arrays(aligned, finger_force=finger)
+                n = add_episode(dataset, arrays, src.task, episode=f"{index} ({src.recording.name})")
+                records.append(_episode_record(index, src, aligned, n, lowpass))
+                n_frames += n
+            if dataset is None:
+                raise ValueError("no recordings to convert")
+        finally:
+            if dataset is not None:  # writes the parquet footers (also of a dataset about to be removed)
+                dataset.finalize()
+    not_converted = _not_converted(records)
+    if not_converted:  # known parts of the format, dropped on purpose: said once, not per file
+        warnings.warn(
+            f"{not_converted} recorded in {sum(bool(r['not_converted']) for r in records)} of "
+            f"{len(records)} episode(s): not converted (the dataset holds joint positions only); "
+            f"listed per episode in {SOURCES_FILE} and in the card",
+            stacklevel=3,
+        )
+    return features, records, n_frames
+
+
+@contextlib.contextmanager
+def _datasets_progress_bars_off() -> Iterator[None]:
+    """LeRobot's save_episode runs a `datasets` map with its own progress bar per episode; ours is enough."""
+    import datasets as hf_datasets
+
+    bars_were_on = hf_datasets.is_progress_bar_enabled()
+    hf_datasets.disable_progress_bars()
+    try:
+        yield
+    finally:
+        if bars_were_on:
+            hf_datasets.enable_progress_bars()
+
+
+def _create_dataset(work: Path, repo_id: str, fps: int, robot_type: str, *, finger: bool) -> tuple[dict, Any]:
+    """The features of a converted dataset (finger force or not) and a new LeRobot dataset at ``work``."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset  # heavy import
+
+    features = dataset_features(
+        layout.state_names(layout.UR5E_JOINT_NAMES),
+        finger_force_names=FINGER_FORCE_NAMES if finger else None,
+        source_timestamp=True,
+    )
+    dataset = LeRobotDataset.create(
+        repo_id, fps=fps, features=features, root=work, robot_type=robot_type, use_videos=False
+    )
+    return features, dataset
+
+
+def _align_source(
+    index: int,
+    src: EpisodeSource,
+    *,
+    fps: int,
+    tare: str,
+    force_lowpass_hz: float | str | None,
+    gripper_full_scale: float,
+    on_duplicate: str,
+) -> tuple[AlignedRecording, float | None]:
+    """One source tared, rotated, filtered and resampled (:func:`.transforms.align_recording`), with the
+    low-pass cutoff used; errors name the episode and its source."""
+    rec = src.recording
+    try:
+        # repeated timestamps (merged later by align_recording) must not shrink the median step
+        distinct = np.unique(rec.wrench_time)
+        if len(distinct) < 2:
+            raise ValueError(f"stream 'wrench': {len(distinct)} distinct timestamp(s), need at least 2")
+        rate = float(1.0 / np.median(np.diff(distinct)))
+        lowpass = resolve_lowpass_hz(force_lowpass_hz, fps, rate)
+        aligned = align_recording(
+            rec,
+            fps=fps,
+            tare=tare,
+            gripper_full_scale=gripper_full_scale,
+            force_lowpass_hz=lowpass,
+            on_duplicate=on_duplicate,
+        )
+    except ValueError as err:
+        raise ValueError(f"episode {index} ({src.source}): {err}") from None
+    if rec.gripper is None:
+        msg = f"no gripper stream: observation.state gripper and action gripper set to {layout.GRIPPER_OPEN} (open)"
+        warnings.warn(f"{rec.name}: {msg}", stacklevel=2)
+        aligned = replace(aligned, warnings=(*aligned.warnings, msg))
+    return aligned, lowpass
 
 
 def _not_converted(records: Sequence[dict[str, Any]]) -> list[str]:
@@ -359,12 +389,6 @@ def _refuse_output_holding_inputs(out: str | Path, inputs: Sequence[Path]) -> No
             raise ValueError(f"output {out} contains the input {p}; write the dataset somewhere else")
 
 
-def _with_warning(a: AlignedRecording, msg: str) -> AlignedRecording:
-    from dataclasses import replace
-
-    return replace(a, warnings=(*a.warnings, msg))
-
-
 _TARE_WINDOW = {
     "auto": f"start window if the sensor is quiet there, force std < {TARE_QUIET_STD_N:g} N, else the end "
     "window if quiet, else the quieter of the two",
@@ -375,19 +399,44 @@ _TARE_WINDOW = {
 
 def _write_card(
     out: Path,
-    records,
-    features,
+    records: Sequence[dict[str, Any]],
+    features: dict[str, Any],
+    settings: dict[str, Any],
     *,
-    fps,
-    title,
-    source_text,
-    robot,
-    repo_id,
-    extra,
-    finger_force_units,
-    tare,
-    gripper_full_scale,
-):
+    title: str,
+    source_text: str,
+    robot: str,
+    repo_id: str,
+    extra: dict[str, Any] | None,
+    finger_force_units: str | None,
+) -> None:
+    """The dataset card: what the conversion did (notes, from the conversion ``settings``), the episodes
+    and their sources, the units."""
+    tare = settings["tare"]
+    notes = {**_card_notes(records, settings["fps"], tare, settings["gripper_full_scale"]), **(extra or {})}
+    episodes_md = ["| episode | source | task | frames | tare window |", "|---|---|---|---|---|"]
+    for r in records:
+        src = r["name"] if r["gbti_key"] else Path(r["source"]).name
+        episodes_md.append(
+            f"| {r['episode_index']} | {src} | {r['task']} | {r['frames']} | {r['tare']['window']} |"
+        )
+    write_dataset_card(
+        out,
+        title=title,
+        source=source_text,
+        robot=robot,
+        units=_card_units(features, tare, finger_force_units),
+        extra="\n".join(
+            [*(f"- **{k}:** {v}" for k, v in notes.items()), "", "### Episodes", "", *episodes_md]
+        ),
+        repo_id=repo_id,
+    )
+
+
+def _card_notes(
+    records: Sequence[dict[str, Any]], fps: int, tare: str, gripper_full_scale: float
+) -> dict[str, str]:
+    """The card's notes on resampling, tare, frames, filtering, action, joints, gripper, what was dropped."""
     lowpass = sorted({r["force_lowpass_hz"] for r in records}, key=lambda x: (x is None, x))
     if tare == "none":
         tare_note = "none (`--tare none`): `observation.force` keeps the sensor's bias"
@@ -396,7 +445,7 @@ def _write_card(
             f"wrist wrench minus the median over a 0.2 s rest window in the tool frame ({_TARE_WINDOW[tare]}); "
             f"window and bias per episode in `{SOURCES_FILE}`"
         )
-    notes: dict[str, Any] = {
+    notes = {
         "Resampling": f"every stream linearly interpolated (orientations by SLERP) to {fps} Hz inside the interval "
         "all streams cover; `source_timestamp` gives each frame's time in the source recording",
         "Tare": tare_note,
@@ -421,13 +470,11 @@ def _write_card(
             f"{', '.join(f'`{p}`' for p in not_converted)} of the source recordings (per episode in "
             f"`{SOURCES_FILE}`)"
         )
-    notes.update(extra or {})
-    episodes_md = ["| episode | source | task | frames | tare window |", "|---|---|---|---|---|"]
-    for r in records:
-        src = r["name"] if r["gbti_key"] else Path(r["source"]).name
-        episodes_md.append(
-            f"| {r['episode_index']} | {src} | {r['task']} | {r['frames']} | {r['tare']['window']} |"
-        )
+    return notes
+
+
+def _card_units(features: dict[str, Any], tare: str, finger_force_units: str | None) -> dict[str, str]:
+    """Units the card states beside ``layout.UNITS``: the finger counts, the flange pose, an untared force."""
     units = (
         {layout.OBS_FINGER_FORCE: finger_force_units or FINGER_FORCE_UNITS}
         if layout.OBS_FINGER_FORCE in features
@@ -439,17 +486,7 @@ def _write_card(
             "tared", "not tared (sensor bias kept)"
         )
     units[layout.SOURCE_TIMESTAMP] = "s since the first sample of the source recording"
-    write_dataset_card(
-        out,
-        title=title,
-        source=source_text,
-        robot=robot,
-        units=units,
-        extra="\n".join(
-            [*(f"- **{k}:** {v}" for k, v in notes.items()), "", "### Episodes", "", *episodes_md]
-        ),
-        repo_id=repo_id,
-    )
+    return units
 
 
 def convert_recordings(
@@ -494,14 +531,6 @@ def _gbti_key(key: GbtiKey | str, name: str) -> GbtiKey:
         raise ValueError(f"{name}: {err}") from None
 
 
-def _gbti_key_arg(text: str) -> GbtiKey:
-    # argparse names the flag with an ArgumentTypeError's text; a ValueError's it replaces by "invalid value"
-    try:
-        return GbtiKey.parse(text)
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(str(err)) from None
-
-
 def convert_gbti(
     path: str | Path,
     out: str | Path,
@@ -543,84 +572,3 @@ def convert_gbti(
         "robot", "UR5e with a wrist force/torque sensor and a gripper with one finger-force sensor"
     )
     return convert_episodes(sources(), out, total=len(key_list), **kwargs)
-
-
-# ---- CLI ------------------------------------------------------------------------------------------------
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "inputs", nargs="+", metavar="INPUT", help="lab-recorder h5 files, or one GBTI h5 with --gbti"
-    )
-    parser.add_argument(
-        "--out", required=True, help="output dataset folder (must not exist unless --overwrite)"
-    )
-    parser.add_argument("--repo-id", default="local/forcemap", help="dataset id (any string works locally)")
-    parser.add_argument(
-        "--fps", type=int, default=DEFAULT_FPS, help=f"resampling rate in Hz (default {DEFAULT_FPS})"
-    )
-    parser.add_argument(
-        "--gbti", action="store_true", help="INPUT is the GBTI grasping file: one episode per demo"
-    )
-    parser.add_argument(
-        "--gbti-keys",
-        nargs="+",
-        metavar="KEY",
-        type=_gbti_key_arg,
-        help="only these demos, e.g. Cube/User1/Position1",
-    )
-    parser.add_argument(
-        "--task", help="task string for every episode (default: from the file name / GBTI object)"
-    )
-    parser.add_argument(
-        "--tare", choices=["auto", "start", "end", "none"], default="auto", help="wrench bias window"
-    )
-    parser.add_argument(
-        "--force-lowpass-hz",
-        default="auto",
-        help=f"wrench anti-alias cutoff in Hz, or 0 for none; 'auto' (default): {LOWPASS_FRACTION_OF_FPS} x "
-        f"--fps when that is below {LOWPASS_MAX_FRACTION_OF_SOURCE} x the recorded wrench's sample rate, else no "
-        f"filter (per episode in {SOURCES_FILE})",
-    )
-    parser.add_argument(
-        "--gripper-full-scale", type=float, default=GRIPPER_FULL_SCALE, help="raw gripper reading = closed"
-    )
-    parser.add_argument(
-        "--on-duplicate-timestamps",
-        choices=["merge", "raise"],
-        default="merge",
-        help="samples repeating the previous timestamp: collapse them with a warning (default) or fail",
-    )
-    parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
-
-
-def run(args: argparse.Namespace) -> int:
-    lowpass: float | str | None = args.force_lowpass_hz
-    if lowpass != "auto":
-        try:
-            lowpass = float(lowpass) or None
-        except ValueError:
-            raise ValueError(f"--force-lowpass-hz must be a number or 'auto', got {lowpass!r}") from None
-    common = dict(
-        repo_id=args.repo_id,
-        fps=args.fps,
-        tare=args.tare,
-        force_lowpass_hz=lowpass,
-        gripper_full_scale=args.gripper_full_scale,
-        overwrite=args.overwrite,
-        on_duplicate=args.on_duplicate_timestamps,
-    )
-    if args.gbti:
-        if len(args.inputs) != 1:
-            raise ValueError("--gbti takes exactly one INPUT file")
-        result = convert_gbti(args.inputs[0], args.out, keys=args.gbti_keys, task=args.task, **common)
-    else:
-        if args.gbti_keys:
-            raise ValueError("--gbti-keys needs --gbti")
-        result = convert_recordings(args.inputs, args.out, task=args.task, **common)
-    size = sum(p.stat().st_size for p in result.root.rglob("*") if p.is_file())
-    print(
-        f"wrote {result.n_episodes} episode(s), {result.n_frames} frames at {result.fps} Hz to {result.root} "
-        f"({size / 1e6:.2f} MB)"
-    )
-    return 0

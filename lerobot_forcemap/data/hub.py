@@ -19,6 +19,7 @@ from typing import Any
 from huggingface_hub.errors import HFValidationError
 from huggingface_hub.utils import validate_repo_id
 
+from lerobot_forcemap.data.reader import lerobot_dataset
 from lerobot_forcemap.data.schema import require_dataset_root
 from lerobot_forcemap.jsonfile import read_json_object
 
@@ -67,14 +68,12 @@ def push_dataset(
     ``repo_id`` must be ``owner/name``. Needs a Hugging Face token (``huggingface-cli login`` or
     ``HF_TOKEN``) and network access (unset ``HF_HUB_OFFLINE``).
     """
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lazy: heavy import
-
     root = require_dataset_root(root)
     check_repo_id(repo_id)
     kwargs = card_kwargs(root)
     kwargs["tags"] = sorted({*kwargs.get("tags", ()), *(tags or ())}) or None
     license_id = kwargs.pop("license", "apache-2.0")
-    dataset = LeRobotDataset(repo_id, root=root)
+    dataset = lerobot_dataset(root, repo_id=repo_id)  # its files checked first, by name
     files = (p.relative_to(root).as_posix() for p in root.rglob("*") if p.is_file())
     left_out = sorted(f for f in files if not any(fnmatch.fnmatch(f, g) for g in DATASET_UPLOAD_PATTERNS))
     if left_out:

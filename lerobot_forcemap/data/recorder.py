@@ -1,6 +1,6 @@
 """Read the lab recorder h5 format and the GBTI grasping file (pure h5py/NumPy, no LeRobot).
 
-Recorder layout (``../shared/data/README.md``)::
+Recorder layout (described in ``docs/data.md``)::
 
     joint_state_info/{joint_positions (n,6) rad, joint_velocities, joint_effort, joint_time (n,2)}
     transform_info/{transform_positions (n,3) m, transform_orientations (n,4) x y z w, transform_time (n,2)}
@@ -195,7 +195,7 @@ def _times(group: h5py.Group, name: str, rec: str, n: int) -> F64:
     return t
 
 
-#: every group and dataset of the lab-recorder format (../shared/data/README.md); joint efforts and
+#: every group and dataset of the lab-recorder format (``docs/data.md``); joint efforts and
 #: velocities are known but not converted
 RECORDER_LAYOUT: dict[str, frozenset[str]] = {
     "joint_state_info": frozenset({"joint_positions", "joint_time", "joint_effort", "joint_velocities"}),
@@ -220,66 +220,16 @@ def _unknown_content(g: h5py.Group) -> list[str]:
 def _read_group(g: h5py.Group, name: str) -> Recording:
     js = _group(g, "joint_state_info", name)
     joints = _array(js, "joint_positions", name, 6)
-    tf = _group(g, "transform_info", name)
-    pos = _array(tf, "transform_positions", name, 3)
-    quat_xyzw = _array(tf, "transform_orientations", name, 4)
-    norms = np.linalg.norm(quat_xyzw, axis=1)
-    if np.any(np.abs(norms - 1.0) > 1e-3):
-        row = int(np.argmax(np.abs(norms - 1.0) > 1e-3))
-        raise ValueError(
-            f"recording {name!r}: 'transform_info/transform_orientations' is not a unit quaternion at sample {row} "
-            f"(norm {norms[row]:.4f})"
-        )
-    if len(pos) != len(quat_xyzw):
-        raise ValueError(
-            f"recording {name!r}: transform_positions has {len(pos)} rows, transform_orientations {len(quat_xyzw)}"
-        )
-    ws = _group(g, "wrench_info", name)
-    force = _array(ws, "wrench_force", name, 3)
-    torque = _array(ws, "wrench_torque", name, 3)
-    if len(force) != len(torque):
-        raise ValueError(
-            f"recording {name!r}: wrench_force has {len(force)} rows, wrench_torque {len(torque)}"
-        )
-
-    gripper_time = gripper = ff_time = ff = None
-    if "gripper_info" in g:
-        gi = _group(g, "gripper_info", name)
-        if "gripper_position" in gi and "gripper_vals" in gi:  # no documented precedence: do not guess
-            raise ValueError(
-                f"recording {name!r}: 'gripper_info' holds both 'gripper_position' (lab recorder) and "
-                "'gripper_vals' (GBTI); expected one gripper reading"
-            )
-        key = (
-            "gripper_position"
-            if "gripper_position" in gi
-            else "gripper_vals"
-            if "gripper_vals" in gi
-            else None
-        )
-        if key is None:
-            raise ValueError(
-                f"recording {name!r}: 'gripper_info' has neither gripper_position nor gripper_vals "
-                f"(found {sorted(gi.keys())})"
-            )
-        gripper = _array(gi, key, name, None)
-        gripper_time = _times(gi, "gripper_time", name, len(gripper))
-        if "force_time" in gi and "forces" not in gi:
-            raise ValueError(
-                f"recording {name!r}: 'gripper_info' has 'force_time' but no 'forces' (the finger force is "
-                "missing; without it this demonstration would convert without finger force)"
-            )
-        if "forces" in gi:
-            ff = _array(gi, "forces", name, None)
-            ff_time = _times(gi, "force_time", name, len(ff))
-
+    tf, pos, quat = _read_pose(g, name)
+    ws, force, torque = _read_wrench(g, name)
+    gripper_time, gripper, ff_time, ff = _read_gripper_info(g, name)
     recording = Recording(
         name=name,
         joint_time=_times(js, "joint_time", name, len(joints)),
         joint_positions=joints[:, RECORDER_TO_CHAIN_ORDER],
         pose_time=_times(tf, "transform_time", name, len(pos)),
         positions=pos,
-        orientations=xyzw_to_wxyz(quat_xyzw / norms[:, None]),
+        orientations=quat,
         wrench_time=_times(ws, "wrench_time", name, len(force)),
         force_tool=force,
         torque_tool=torque,
@@ -295,6 +245,66 @@ def _read_group(g: h5py.Group, name: str) -> Recording:
             stacklevel=2,
         )
     return recording
+
+
+def _read_pose(g: h5py.Group, name: str) -> tuple[h5py.Group, F64, F64]:
+    """``transform_info``: the group, positions (n, 3) and unit quaternions (n, 4) w x y z."""
+    tf = _group(g, "transform_info", name)
+    pos = _array(tf, "transform_positions", name, 3)
+    quat_xyzw = _array(tf, "transform_orientations", name, 4)
+    norms = np.linalg.norm(quat_xyzw, axis=1)
+    if np.any(np.abs(norms - 1.0) > 1e-3):
+        row = int(np.argmax(np.abs(norms - 1.0) > 1e-3))
+        raise ValueError(
+            f"recording {name!r}: 'transform_info/transform_orientations' is not a unit quaternion at sample {row} "
+            f"(norm {norms[row]:.4f})"
+        )
+    if len(pos) != len(quat_xyzw):
+        raise ValueError(
+            f"recording {name!r}: transform_positions has {len(pos)} rows, transform_orientations {len(quat_xyzw)}"
+        )
+    return tf, pos, xyzw_to_wxyz(quat_xyzw / norms[:, None])
+
+
+def _read_wrench(g: h5py.Group, name: str) -> tuple[h5py.Group, F64, F64]:
+    """``wrench_info``: the group, force (n, 3) and torque (n, 3) as recorded (tool frame, biased)."""
+    ws = _group(g, "wrench_info", name)
+    force = _array(ws, "wrench_force", name, 3)
+    torque = _array(ws, "wrench_torque", name, 3)
+    if len(force) != len(torque):
+        raise ValueError(
+            f"recording {name!r}: wrench_force has {len(force)} rows, wrench_torque {len(torque)}"
+        )
+    return ws, force, torque
+
+
+def _read_gripper_info(g: h5py.Group, name: str) -> tuple[F64 | None, F64 | None, F64 | None, F64 | None]:
+    """``gripper_info`` (optional): gripper times and raw readings, finger-force times and raw counts."""
+    if "gripper_info" not in g:
+        return None, None, None, None
+    gi = _group(g, "gripper_info", name)
+    if "gripper_position" in gi and "gripper_vals" in gi:  # no documented precedence: do not guess
+        raise ValueError(
+            f"recording {name!r}: 'gripper_info' holds both 'gripper_position' (lab recorder) and "
+            "'gripper_vals' (GBTI); expected one gripper reading"
+        )
+    key = next((k for k in ("gripper_position", "gripper_vals") if k in gi), None)
+    if key is None:
+        raise ValueError(
+            f"recording {name!r}: 'gripper_info' has neither gripper_position nor gripper_vals "
+            f"(found {sorted(gi.keys())})"
+        )
+    gripper = _array(gi, key, name, None)
+    gripper_time = _times(gi, "gripper_time", name, len(gripper))
+    if "force_time" in gi and "forces" not in gi:
+        raise ValueError(
+            f"recording {name!r}: 'gripper_info' has 'force_time' but no 'forces' (the finger force is "
+            "missing; without it this demonstration would convert without finger force)"
+        )
+    if "forces" not in gi:
+        return gripper_time, gripper, None, None
+    ff = _array(gi, "forces", name, None)
+    return gripper_time, gripper, _times(gi, "force_time", name, len(ff)), ff
 
 
 def read_recording(path_or_group: str | Path | h5py.Group, name: str | None = None) -> Recording:

@@ -1,4 +1,4 @@
-"""LeRobot v3 feature dicts, frame/episode validation and dataset cards for force datasets (SPEC §3).
+"""LeRobot v3 feature dicts, frame/episode validation and dataset cards for force datasets.
 
 Every feature key and name list comes from :mod:`lerobot_forcemap.layout`; this module only assembles
 them into LeRobot's ``{"dtype", "shape", "names"}`` dicts. Shapes are tuples (LeRobot compares
@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from lerobot_forcemap import layout
+from lerobot_forcemap._validation import first_bad_index
 
 __all__ = [
     "FLOAT_DTYPE",
@@ -36,7 +37,6 @@ __all__ = [
     "write_dataset_card",
     "refresh_dataset_card",
     "require_dataset_root",
-    "check_data_columns",
 ]
 
 FLOAT_DTYPE = "float32"
@@ -153,6 +153,26 @@ def _unrepresentable(arr: np.ndarray, dtype: str) -> np.ndarray:
     return np.zeros(arr.shape, dtype=bool)
 
 
+def _check_keys(
+    given: set[str],
+    features: Mapping[str, Mapping[str, Any]],
+    expected: set[str],
+    where: str,
+    extra: Sequence[str],
+) -> None:
+    """Every ``expected`` key given, and no key beyond the features and ``extra`` (LeRobot's automatic
+    columns are refused even when ``features`` lists them, as a ``LeRobotDataset``'s do: add_frame
+    would drop them unseen)."""
+    missing = sorted(expected - given)
+    if missing:
+        raise ValueError(f"{where}: missing feature(s) {missing}")
+    unknown = sorted((given - expected - set(extra)) | (given & set(LEROBOT_AUTO_KEYS)))
+    if unknown:
+        auto = [k for k in unknown if k in LEROBOT_AUTO_KEYS]
+        hint = f" ({auto} are added by LeRobot itself)" if auto else ""
+        raise ValueError(f"{where}: unknown key(s) {unknown} not in the dataset features{hint}")
+
+
 def validate_frame(
     frame: Mapping[str, Any],
     features: Mapping[str, Mapping[str, Any]],
@@ -169,44 +189,38 @@ def validate_frame(
     """
     where = _where(episode, frame_index)
     expected = {k for k in features if k not in LEROBOT_AUTO_KEYS}
-    missing = sorted(expected - set(frame))
-    if missing:
-        raise ValueError(f"{where}: missing feature(s) {missing}")
-    unknown = sorted(set(frame) - expected - set(FRAME_EXTRA_KEYS))
-    if unknown:
-        auto = [k for k in unknown if k in LEROBOT_AUTO_KEYS]
-        hint = f" ({auto} are added by LeRobot itself)" if auto else ""
-        raise ValueError(f"{where}: unknown key(s) {unknown} not in the dataset features{hint}")
+    _check_keys(set(frame), features, expected, where, FRAME_EXTRA_KEYS)
     if require_task and not isinstance(frame.get("task"), str):
         raise ValueError(f"{where}: 'task' must be a str, got {type(frame.get('task')).__name__}")
     for key in [k for k in features if k in expected]:
         ft = features[key]
-        value = frame[key]
         if ft["dtype"] in ("image", "video"):
-            shape = np.shape(value)
+            shape = np.shape(frame[key])
             h, w, c = ft["shape"]
             if shape not in ((h, w, c), (c, h, w)):
                 raise ValueError(f"{where}: {key!r} has shape {shape}, expected {(h, w, c)} or {(c, h, w)}")
-            continue
-        if ft["dtype"] in ("string", "language"):
-            continue
-        arr = np.asarray(value)
-        if arr.shape != tuple(ft["shape"]):
-            raise ValueError(f"{where}: {key!r} has shape {arr.shape}, expected {tuple(ft['shape'])}")
-        if arr.dtype.kind not in "biuf":
-            raise ValueError(f"{where}: {key!r} has non-numeric dtype {arr.dtype}")
-        if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
-            bad = np.flatnonzero(~np.isfinite(arr.reshape(-1)))
-            col = [_component(ft, int(i)) for i in bad]
-            raise ValueError(f"{where}: {key!r} is not finite at component(s) {col}")
-        if np.dtype(ft["dtype"]).kind in "iu" and arr.dtype.kind == "f":
-            raise ValueError(f"{where}: {key!r} must be integer ({ft['dtype']}), got {arr.dtype}")
-        if (bad := _unrepresentable(arr, ft["dtype"]).reshape(-1)).any():
-            i = int(np.argmax(bad))
-            raise ValueError(
-                f"{where}: {key!r} component {_component(ft, i)!r} = {arr.reshape(-1)[i].item()!r} "
-                f"does not fit the feature dtype {ft['dtype']}"
-            )
+        elif ft["dtype"] not in ("string", "language"):
+            _check_frame_value(np.asarray(frame[key]), key, ft, where)
+
+
+def _check_frame_value(arr: np.ndarray, key: str, ft: Mapping[str, Any], where: str) -> None:
+    """One numeric value of a frame: the feature's shape, numbers, finite, representable in its dtype."""
+    if arr.shape != tuple(ft["shape"]):
+        raise ValueError(f"{where}: {key!r} has shape {arr.shape}, expected {tuple(ft['shape'])}")
+    if arr.dtype.kind not in "biuf":
+        raise ValueError(f"{where}: {key!r} has non-numeric dtype {arr.dtype}")
+    if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
+        bad = np.flatnonzero(~np.isfinite(arr.reshape(-1)))
+        col = [_component(ft, int(i)) for i in bad]
+        raise ValueError(f"{where}: {key!r} is not finite at component(s) {col}")
+    if np.dtype(ft["dtype"]).kind in "iu" and arr.dtype.kind == "f":
+        raise ValueError(f"{where}: {key!r} must be integer ({ft['dtype']}), got {arr.dtype}")
+    if (bad := _unrepresentable(arr, ft["dtype"]).reshape(-1)).any():
+        i = int(np.argmax(bad))
+        raise ValueError(
+            f"{where}: {key!r} component {_component(ft, i)!r} = {arr.reshape(-1)[i].item()!r} "
+            f"does not fit the feature dtype {ft['dtype']}"
+        )
 
 
 def validate_episode_arrays(
@@ -223,64 +237,62 @@ def validate_episode_arrays(
     """
     where = _where(episode, None)
     images = [k for k, ft in features.items() if ft["dtype"] in ("image", "video")]
-    expected = {k for k in numeric_feature_keys(features)} | set(images)
-    missing = sorted(expected - set(arrays))
-    if missing:
-        raise ValueError(f"{where}: missing feature(s) {missing}")
-    # a LeRobotDataset's features list its automatic columns too; add_episode would drop them unseen
-    unknown = sorted((set(arrays) - set(features)) | (set(arrays) & set(LEROBOT_AUTO_KEYS)))
-    if unknown:
-        auto = [k for k in unknown if k in LEROBOT_AUTO_KEYS]
-        hint = f" ({auto} are added by LeRobot itself)" if auto else ""
-        raise ValueError(f"{where}: unknown key(s) {unknown} not in the dataset features{hint}")
+    expected = set(numeric_feature_keys(features)) | set(images)
+    _check_keys(set(arrays), features, expected, where, tuple(features))
     n_frames: int | None = None
     for key in [k for k in features if k in expected]:  # features order: state first
-        ft = features[key]
         arr = np.asarray(arrays[key])
-        shape = tuple(ft["shape"])
         if key in images:
-            h, w, c = shape
+            h, w, c = features[key]["shape"]
             if arr.ndim != 4 or arr.shape[1:] not in ((h, w, c), (c, h, w)):
                 raise ValueError(
                     f"{where}: {key!r} has shape {arr.shape}, expected (T, {h}, {w}, {c}) or (T, {c}, {h}, {w})"
                 )
-            if n_frames is not None and arr.shape[0] != n_frames:
-                raise ValueError(
-                    f"{where}: {key!r} has {arr.shape[0]} frames, other features have {n_frames}"
-                )
-            n_frames = arr.shape[0] if n_frames is None else n_frames
-            continue
-        if arr.ndim >= 1 and shape == (1,) and arr.shape == (arr.shape[0],):
-            arr = arr[:, None]
-        if arr.ndim != len(shape) + 1 or arr.shape[1:] != shape:
-            raise ValueError(
-                f"{where}: {key!r} has shape {arr.shape}, expected (T, {', '.join(map(str, shape))})"
-            )
-        if n_frames is None:
-            n_frames = arr.shape[0]
-        elif arr.shape[0] != n_frames:
-            raise ValueError(f"{where}: {key!r} has {arr.shape[0]} frames, other features have {n_frames}")
-        if arr.dtype.kind not in "biuf":
-            raise ValueError(f"{where}: {key!r} has non-numeric dtype {arr.dtype}")
-        if arr.dtype.kind == "f":
-            finite = np.isfinite(arr.reshape(arr.shape[0], -1))
-            if not finite.all():
-                t, c = (int(v) for v in np.argwhere(~finite)[0])
-                raise ValueError(
-                    f"{where}, frame {t}: {key!r} is not finite (component {_component(ft, c)!r})"
-                )
-            if np.dtype(ft["dtype"]).kind in "iu":
-                raise ValueError(f"{where}: {key!r} must be integer ({ft['dtype']}), got {arr.dtype}")
-        bad = _unrepresentable(arr, ft["dtype"]).reshape(arr.shape[0], -1)
-        if bad.any():
-            t, c = (int(v) for v in np.argwhere(bad)[0])
-            raise ValueError(
-                f"{where}, frame {t}: {key!r} component {_component(ft, c)!r} = "
-                f"{arr.reshape(arr.shape[0], -1)[t, c].item()!r} does not fit the feature dtype {ft['dtype']}"
-            )
+            _check_frame_count(arr, key, n_frames, where)
+        else:
+            arr = _check_episode_column(arr, key, features[key], where, n_frames)
+        n_frames = arr.shape[0] if n_frames is None else n_frames
     if not n_frames:
         raise ValueError(f"{where}: empty episode (0 frames)")
     return int(n_frames)
+
+
+def _check_frame_count(arr: np.ndarray, key: str, n_frames: int | None, where: str) -> None:
+    if n_frames is not None and arr.shape[0] != n_frames:
+        raise ValueError(f"{where}: {key!r} has {arr.shape[0]} frames, other features have {n_frames}")
+
+
+def _check_episode_column(
+    arr: np.ndarray, key: str, ft: Mapping[str, Any], where: str, n_frames: int | None
+) -> np.ndarray:
+    """One numeric column ``(T, *shape)`` (``(T,)`` for a scalar feature): as many frames as the others
+    (``n_frames``), numbers, finite, representable in the feature dtype; the first bad frame named."""
+    shape = tuple(ft["shape"])
+    if arr.ndim >= 1 and shape == (1,) and arr.shape == (arr.shape[0],):
+        arr = arr[:, None]
+    if arr.ndim != len(shape) + 1 or arr.shape[1:] != shape:
+        raise ValueError(
+            f"{where}: {key!r} has shape {arr.shape}, expected (T, {', '.join(map(str, shape))})"
+        )
+    _check_frame_count(arr, key, n_frames, where)
+    if arr.dtype.kind not in "biuf":
+        raise ValueError(f"{where}: {key!r} has non-numeric dtype {arr.dtype}")
+    flat = arr.reshape(arr.shape[0], -1)
+    if arr.dtype.kind == "f":
+        finite = np.isfinite(flat)
+        if not finite.all():
+            t, c = first_bad_index(~finite)
+            raise ValueError(f"{where}, frame {t}: {key!r} is not finite (component {_component(ft, c)!r})")
+        if np.dtype(ft["dtype"]).kind in "iu":
+            raise ValueError(f"{where}: {key!r} must be integer ({ft['dtype']}), got {arr.dtype}")
+    bad = _unrepresentable(flat, ft["dtype"])
+    if bad.any():
+        t, c = first_bad_index(bad)
+        raise ValueError(
+            f"{where}, frame {t}: {key!r} component {_component(ft, c)!r} = "
+            f"{flat[t, c].item()!r} does not fit the feature dtype {ft['dtype']}"
+        )
+    return arr
 
 
 def add_episode(
@@ -377,45 +389,6 @@ def require_dataset_root(root: str | Path, argument: str | None = None) -> Path:
         where = f"{argument} {root}" if argument else str(root)
         raise ValueError(f"{where}: not a LeRobot dataset (no meta/info.json)")
     return root
-
-
-def check_data_columns(root: str | Path) -> None:
-    """The data files hold the columns ``meta/info.json`` lists, with its per-frame sizes, else a
-    ``ValueError`` naming the file and the feature(s). LeRobot would fail inside its parquet reader with a
-    long traceback ("Couldn't cast fixed_size_list[3] to List(float32, 6)") naming neither."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    root = Path(root)
-    features = json.loads((root / "meta" / "info.json").read_text()).get("features") or {}
-    in_data = {k: ft for k, ft in features.items() if ft.get("dtype") != "video"}  # videos live elsewhere
-    for path in sorted((root / "data").glob("*/*.parquet")):
-        try:
-            schema = pq.read_schema(path)
-        except (OSError, pa.ArrowException) as err:
-            raise ValueError(f"{path}: not a readable parquet file ({err})") from None
-        missing = sorted(set(in_data) - set(schema.names))
-        extra = sorted(set(schema.names) - set(in_data))
-        if missing or extra:
-            raise ValueError(
-                f"{path}: columns and meta/info.json features differ: "
-                + "; ".join(
-                    f"{what} {names}"
-                    for what, names in (
-                        ("in meta/info.json but not in the file:", missing),
-                        ("in the file but not in meta/info.json:", extra),
-                    )
-                    if names
-                )
-            )
-        for key, ft in in_data.items():
-            kind = schema.field(key).type
-            shape = tuple(ft.get("shape") or ())
-            if pa.types.is_fixed_size_list(kind) and len(shape) == 1 and kind.list_size != shape[0]:
-                raise ValueError(
-                    f"{path}: feature {key!r} holds {kind.list_size} values per frame, meta/info.json "
-                    f"says shape {list(shape)}"
-                )
 
 
 def write_dataset_card(

@@ -1,11 +1,11 @@
-"""``forcemap segment``: segment a LeRobot dataset's episodes and write the segments back into it.
+"""Segment a LeRobot dataset's episodes and write the segments back into it (``forcemap segment``).
 
 Streams per episode (those the dataset has): ``joints`` (observation.state without its last entry),
 ``position`` (observation.ee_pose x y z), ``wrist_force`` (observation.force fx fy fz), ``gripper``
 (observation.state's last entry) and ``finger_force`` (observation.finger_force), all on the
 episode's LeRobot ``timestamp``. They go to :func:`lerobot_forcemap.segmentation.segment_streams`.
 
-Write-back, in place (LeRobot 0.6.1 checked, ``datasets/language.py``, ``feature_utils.py``):
+Write-back (the layout of LeRobot 0.6.1's ``datasets/language.py`` and ``feature_utils.py``):
 
 - a per-frame int64 column ``segment_index`` (``layout.SEGMENT_INDEX``) — what the forcemap policy
   reads; segment k is frames ``[changepoints[k], changepoints[k+1])``;
@@ -26,12 +26,12 @@ Either way, an earlier run's "segment k of K" rows that are kept but no longer m
 ``segment_index`` are named in a warning.
 Episodes not segmented in this call keep their labels (or get one segment, 0, when the column is new:
 said in a warning). Every episode's labels are checked against the data files before anything is
-written; the parquet shards are then all written to temporary files and renamed together.
+written; the new dataset is then written to a copy beside it (``data.staging.edit_dir``), which replaces
+it only when complete: a failure part way leaves the dataset exactly as it was.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import re
 import warnings
@@ -44,20 +44,21 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from lerobot_forcemap import layout
-from lerobot_forcemap.data.schema import (
-    SEGMENT_INDEX_FEATURE,
-    check_data_columns,
-    refresh_dataset_card,
-    require_dataset_root,
+from lerobot_forcemap._validation import check_choice
+from lerobot_forcemap.data.reader import (
+    EPISODES_DIR,
+    STATS_FILE,
+    DatasetMeta,
+    check_data_files,
+    read_columns,
+    read_meta,
+    read_table,
+    to_meta,
 )
-from lerobot_forcemap.segmentation import (
-    AUTHORS_WINDOW_S,
-    SegmentationConfig,
-    SegmentationResult,
-    Stream,
-    segment_streams,
-)
-from lerobot_forcemap.segmentation.config import CHANGEPOINT_METHODS, MODES
+from lerobot_forcemap.data.schema import SEGMENT_INDEX_FEATURE, refresh_dataset_card
+from lerobot_forcemap.data.staging import edit_dir
+from lerobot_forcemap.jsonfile import read_json_object
+from lerobot_forcemap.segmentation import SegmentationConfig, SegmentationResult, Stream, segment_streams
 
 __all__ = [
     "STREAM_THRESHOLDS",
@@ -69,12 +70,10 @@ __all__ = [
     "write_segments",
     "read_segment_index",
     "read_subtasks",
-    "add_arguments",
-    "run",
 ]
 
-# The authors' UR5e thresholds (SPEC §2): joints 0.20, Cartesian 0.25, wrist force 0.15, gripper
-# 0.10; finger force has none there and takes the wrist force's.
+# The original authors' UR5e thresholds: joints 0.20, Cartesian 0.25, wrist force 0.15, gripper 0.10;
+# finger force has none there and takes the wrist force's.
 STREAM_THRESHOLDS: dict[str, float] = {
     "joints": 0.20,
     "position": 0.25,
@@ -154,21 +153,6 @@ def episode_streams(
     return streams
 
 
-def _data_files(root: Path) -> list[Path]:
-    files = sorted((root / "data").glob("*/*.parquet"))
-    if not files:
-        raise ValueError(f"{root}: no data/*/*.parquet files (not a LeRobot v3 dataset?)")
-    return files
-
-
-def _load(root: Path, repo_id: str):
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lazy: heavy import
-
-    # a data file that disagrees with meta/info.json: named here, before LeRobot's parquet traceback
-    check_data_columns(root)
-    return LeRobotDataset(repo_id, root=root)
-
-
 def _check_stream_settings(
     available: Sequence[str], weights: Mapping[str, float] | None, thresholds: Mapping[str, float] | None
 ) -> None:
@@ -190,6 +174,26 @@ def _check_stream_settings(
         )
 
 
+def _stream_keys(
+    meta: DatasetMeta, weights: Mapping[str, float] | None, thresholds: Mapping[str, float] | None
+) -> list[str]:
+    """The features the dataset's streams come from, after checking the stream settings against them;
+    a dataset without force is segmented with a warning."""
+    available = stream_columns(meta.features)
+    if not available:
+        raise ValueError(
+            f"{meta.root}: no feature to segment on (need {layout.OBS_STATE}, {layout.OBS_FORCE}, ...)"
+        )
+    _check_stream_settings(list(available), weights, thresholds)
+    if not {layout.OBS_FORCE, layout.OBS_FINGER_FORCE} & set(meta.features):
+        warnings.warn(
+            f"{meta.root}: no force feature ({layout.OBS_FORCE} or {layout.OBS_FINGER_FORCE}); segmenting on "
+            f"{', '.join(sorted(available))} only",
+            stacklevel=3,
+        )
+    return sorted({key for key, _ in available.values()})
+
+
 def segment_dataset(
     root: str | Path,
     *,
@@ -204,90 +208,98 @@ def segment_dataset(
     progress: bool = True,
 ) -> list[EpisodeSegments]:
     """Segment the episodes (all, or ``episodes``) of the dataset at ``root``; write them back if ``write``
-    (``segment_index``, plus LeRobot subtasks of ``style`` if ``subtasks``)."""
-    # checked first: LeRobotDataset would create a missing folder and then look for it on the Hub
-    root = require_dataset_root(root, "--dataset")
-    if style not in SUBTASK_STYLES:
-        raise ValueError(f"style must be one of {SUBTASK_STYLES}, got {style!r}")
-    ds = _load(root, repo_id)
-    features = ds.meta.features
-    keys = sorted({key for key, _ in stream_columns(features).values()})
-    if not keys:
-        raise ValueError(
-            f"{root}: no feature to segment on (need {layout.OBS_STATE}, {layout.OBS_FORCE}, ...)"
-        )
-    _check_stream_settings(list(stream_columns(features)), weights, thresholds)
-    if not {layout.OBS_FORCE, layout.OBS_FINGER_FORCE} & set(features):
-        warnings.warn(
-            f"{root}: no force feature ({layout.OBS_FORCE} or {layout.OBS_FINGER_FORCE}); segmenting on "
-            f"{', '.join(sorted(stream_columns(features)))} only",
-            stacklevel=2,
-        )
-    table = ds.hf_dataset.with_format("numpy")
-    ep_col = np.asarray(table["episode_index"])
-    n_episodes = ds.meta.total_episodes
-    chosen = list(range(n_episodes)) if episodes is None else [int(e) for e in episodes]
-    repeated = sorted({e for e in chosen if chosen.count(e) > 1})
-    if repeated:  # segmenting one twice would write its labels twice over
-        raise ValueError(f"--episodes: episode(s) {repeated} given more than once")
-    bad = [e for e in chosen if not 0 <= e < n_episodes]
-    if bad:
-        raise ValueError(f"{root}: episode(s) {bad} not in the dataset (0..{n_episodes - 1})")
-    data = {key: np.asarray(table[key]) for key in keys}
-    ts = np.asarray(table["timestamp"], dtype=np.float64)
+    (``segment_index``, plus LeRobot subtasks of ``style`` if ``subtasks``). ``repo_id``: the id the
+    dataset goes by."""
+    meta = read_meta(root, repo_id=repo_id, name="--dataset")
+    check_choice("style", style, SUBTASK_STYLES)
+    keys = _stream_keys(meta, weights, thresholds)
+    chosen = list(range(meta.total_episodes)) if episodes is None else list(episodes)
+    columns = read_columns(meta, chosen, [*keys, "timestamp", "episode_index"], name="--episodes")
+    episode_column = columns["episode_index"]
+    times = np.asarray(columns["timestamp"], dtype=np.float64)
     out = []
     for e in tqdm(chosen, desc="segment", unit="episode", disable=not progress):
-        rows = np.flatnonzero(ep_col == e)
-        cols = {key: data[key][rows] for key in keys}
-        try:
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
-                streams = episode_streams(cols, ts[rows], features, weights=weights, thresholds=thresholds)
-                result = segment_streams(streams, config)
-        except ValueError as err:
-            raise ValueError(f"episode {e}: {err}") from err
-        for w in caught:  # e.g. repeated timestamps: which of 60 episodes is it?
-            warnings.warn(f"episode {e}: {w.message}", w.category, stacklevel=2)
-        out.append(
-            EpisodeSegments(e, np.asarray(result.changepoints, dtype=np.int64), result.labels(), result)
-        )
+        rows = np.flatnonzero(episode_column == e)
+        streams = {key: columns[key][rows] for key in keys}
+        out.append(_segment_episode(e, streams, times[rows], meta.features, weights, thresholds, config))
     if write:
-        write_segments(root, out, style=style, fps=ds.meta.fps, subtasks=subtasks)
+        write_segments(meta, out, style=style, subtasks=subtasks)
     return out
 
 
-def _labels_from(seg: EpisodeSegments | np.ndarray) -> np.ndarray:
-    return seg.labels if isinstance(seg, EpisodeSegments) else np.asarray(seg, dtype=np.int64)
+def _segment_episode(
+    episode: int,
+    columns: Mapping[str, np.ndarray],
+    times: np.ndarray,
+    features: Mapping[str, Mapping[str, Any]],
+    weights: Mapping[str, float] | None,
+    thresholds: Mapping[str, float] | None,
+    config: SegmentationConfig | None,
+) -> EpisodeSegments:
+    """One episode's segments; its errors and warnings name the episode."""
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            streams = episode_streams(columns, times, features, weights=weights, thresholds=thresholds)
+            result = segment_streams(streams, config)
+    except ValueError as err:
+        raise ValueError(f"episode {episode}: {err}") from err
+    for w in caught:  # e.g. repeated timestamps: which of 60 episodes is it?
+        warnings.warn(f"episode {episode}: {w.message}", w.category, stacklevel=3)
+    return EpisodeSegments(episode, np.asarray(result.changepoints, dtype=np.int64), result.labels(), result)
+
+
+# ---- write-back -----------------------------------------------------------------------------------------
 
 
 def write_segments(
-    root: str | Path,
+    dataset: str | Path | DatasetMeta,
     segments: Sequence[EpisodeSegments] | Mapping[int, np.ndarray],
     *,
     style: str = "motion",
     fps: int | None = None,
     subtasks: bool = True,
 ) -> None:
-    """Write per-frame labels (``{episode: labels (T,)}`` or :class:`EpisodeSegments`) into the dataset,
-    and, if ``subtasks``, one LeRobot subtask row of ``style`` per segment.
+    """Write per-frame labels (``{episode: labels (T,)}`` or :class:`EpisodeSegments`) into the dataset
+    (a folder, or its :class:`~lerobot_forcemap.data.reader.DatasetMeta`), and, if ``subtasks``, one
+    LeRobot subtask row of ``style`` per segment; ``fps`` (default the dataset's) times the rows.
 
     Labels must be non-decreasing integers starting at 0 with steps of 1 (segment k follows k-1);
-    otherwise ``ValueError`` names the episode and the frame.
+    otherwise ``ValueError`` names the episode and the frame. Everything is checked before anything is
+    written, and the dataset is replaced only once the new one is complete.
     """
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-    from lerobot.datasets.io_utils import load_info, write_info, write_table_one_row_group_per_episode
-    from lerobot.datasets.language import LANGUAGE_EVENTS, LANGUAGE_PERSISTENT, language_feature_info
+    meta = to_meta(dataset)
+    check_choice("style", style, SUBTASK_STYLES)
+    labels_by_ep = _labels_by_episode(segments)
+    check_data_files(meta)  # the rewrite keeps every column: one info.json does not list would stay so
+    _check_labels_fit(meta, labels_by_ep)
+    fps = int(fps or meta.fps)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with edit_dir(meta.root) as work:
+            stale = _rewrite_data_files(meta, work, labels_by_ep, style=style, fps=fps, subtasks=subtasks)
+            _write_info(work, subtasks)
+            _write_segment_stats(work)
+            refresh_dataset_card(work)  # the card's feature table gains the new columns
+    for w in caught:  # said of the dataset, not of its copy being written
+        warnings.warn(str(w.message).replace(str(work), str(meta.root)), w.category, stacklevel=2)
+    if stale:
+        warnings.warn(
+            f"{meta.root}: episode(s) {sorted(stale)} keep subtask rows of an earlier `forcemap segment` "
+            f"(other style, or --no-subtasks) that no longer match the new {layout.SEGMENT_INDEX}; rerun with "
+            "that --style to update them",
+            stacklevel=2,
+        )
 
-    root = Path(root)
-    if style not in SUBTASK_STYLES:
-        raise ValueError(f"style must be one of {SUBTASK_STYLES}, got {style!r}")
+
+def _labels_by_episode(
+    segments: Sequence[EpisodeSegments] | Mapping[int, np.ndarray],
+) -> dict[int, np.ndarray]:
+    """``{episode: labels (T,) int64}``, each starting at 0 and stepping by 0 or 1."""
     if isinstance(segments, Mapping):
         labels_by_ep = {int(e): np.asarray(v, dtype=np.int64) for e, v in segments.items()}
     else:
-        labels_by_ep = {s.episode_index: _labels_from(s) for s in segments}
-    info = load_info(root)
-    fps = int(fps or info.fps)
+        labels_by_ep = {s.episode_index: s.labels for s in segments}
     for e, lab in labels_by_ep.items():
         if lab.ndim != 1 or len(lab) == 0:
             raise ValueError(f"episode {e}: labels must be a non-empty (T,) array, got shape {lab.shape}")
@@ -297,111 +309,142 @@ def write_segments(
             raise ValueError(
                 f"episode {e}, frame {i}: segment labels must start at 0 and step by 1, got {lab[i]}"
             )
+    return labels_by_ep
 
-    # every episode checked against the data files before any file is written: a bad one leaves the
-    # dataset as it was (LeRobot cannot open a data file whose columns info.json does not list)
-    files = _data_files(root)
+
+def _check_labels_fit(meta: DatasetMeta, labels_by_ep: Mapping[int, np.ndarray]) -> None:
+    """One label per frame of each labelled episode, counted in the data files; said when the column
+    is new and episodes not labelled now get one segment."""
     frames: dict[int, int] = {}
-    has_column = True
-    for path in files:
-        ep = pq.read_table(path, columns=["episode_index"]).column("episode_index").to_numpy()
-        for e, n in zip(*np.unique(ep, return_counts=True), strict=True):
+    for path in sorted({meta.root / ep.data_file for ep in meta.episodes}):
+        episode = read_table(path, ["episode_index"]).column(0).to_numpy()
+        for e, n in zip(*np.unique(episode, return_counts=True), strict=True):
             frames[int(e)] = frames.get(int(e), 0) + int(n)
-        has_column &= layout.SEGMENT_INDEX in pq.read_schema(path).names
     missing = sorted(set(labels_by_ep) - set(frames))
     if missing:
-        raise ValueError(f"{root}: episode(s) {missing} not found in the data files")
+        raise ValueError(f"{meta.root}: episode(s) {missing} not found in the data files")
     for e, lab in labels_by_ep.items():
         if len(lab) != frames[e]:
             raise ValueError(f"episode {e}: {len(lab)} labels for {frames[e]} frames")
-    if not has_column and set(frames) - set(labels_by_ep):
+    unlabelled = sorted(set(frames) - set(labels_by_ep))
+    if layout.SEGMENT_INDEX not in meta.features and unlabelled:
         warnings.warn(
-            f"{root}: {layout.SEGMENT_INDEX} is new; episode(s) {sorted(set(frames) - set(labels_by_ep))}, "
-            "not segmented in this call, get one segment (0)",
-            stacklevel=2,
+            f"{meta.root}: {layout.SEGMENT_INDEX} is new; episode(s) {unlabelled}, not segmented in this call, "
+            "get one segment (0)",
+            stacklevel=3,
         )
 
-    staged: list[tuple[Path, Path]] = []
-    stale: set[int] = set()  # episodes keeping an earlier run's rows that the new labels contradict
-    for path in files:
-        table = pq.read_table(path)
-        ep = table.column("episode_index").to_numpy()
-        frame = table.column("frame_index").to_numpy()
-        if layout.SEGMENT_INDEX in table.column_names:
-            seg_col = table.column(layout.SEGMENT_INDEX).to_numpy().astype(np.int64)
-        else:
-            seg_col = np.zeros(len(ep), dtype=np.int64)
-        has_language = LANGUAGE_PERSISTENT in table.column_names
-        if has_language:
-            persistent = table.column(LANGUAGE_PERSISTENT).to_pylist()
-        else:
-            persistent = [[] for _ in range(len(ep))]
-        episode_rows: dict[int, list[dict]] = {}
-        for e in np.unique(ep):
-            e = int(e)
-            if e not in labels_by_ep:
-                continue
-            rows = np.flatnonzero(ep == e)
-            lab = labels_by_ep[e]
-            seg_col[rows] = lab[frame[rows]]
-            if not (subtasks or has_language):
-                continue
-            old = persistent[rows[0]] or []
-            kept = [r for r in old if not (subtasks and r.get("style") == style)]
-            if _disagree(kept, lab, fps):
-                stale.add(e)
-            if not subtasks:
-                continue
-            starts = _starts(lab)
-            n_seg = len(starts)
-            ours = [
-                {
-                    "role": _ROLE,
-                    "content": f"segment {k} of {n_seg}",
-                    "style": style,
-                    "timestamp": float(np.float32(start / fps)),
-                    "camera": None,
-                    "tool_calls": None,
-                }
-                for k, start in enumerate(starts)
-            ]
-            episode_rows[e] = sorted(kept + ours, key=lambda r: (float(r["timestamp"]), r.get("style") or ""))
-        # without subtasks the language columns stay as they are (or absent)
-        language = [n for n in (LANGUAGE_PERSISTENT, LANGUAGE_EVENTS) if subtasks or n in table.column_names]
-        keep = [n for n in table.column_names if n not in (layout.SEGMENT_INDEX, *language)]
-        columns = [table.column(n) for n in keep] + [pa.array(seg_col)]
+
+def _rewrite_data_files(
+    meta: DatasetMeta,
+    work: Path,
+    labels_by_ep: Mapping[int, np.ndarray],
+    *,
+    style: str,
+    fps: int,
+    subtasks: bool,
+) -> set[int]:
+    """Each data file of ``meta`` with the new labels (and rows), written to the same place in ``work``;
+    returns the episodes whose kept subtask rows of another run now disagree with the labels."""
+    from lerobot.datasets.io_utils import write_table_one_row_group_per_episode
+
+    stale: set[int] = set()
+    for file in sorted({ep.data_file for ep in meta.episodes}):
+        table, file_stale = _relabel_table(read_table(meta.root / file), labels_by_ep, style, fps, subtasks)
+        write_table_one_row_group_per_episode(table, work / file)
+        stale |= file_stale
+    return stale
+
+
+def _relabel_table(
+    table: Any, labels_by_ep: Mapping[int, np.ndarray], style: str, fps: int, subtasks: bool
+) -> tuple[Any, set[int]]:
+    """One data file's table with ``segment_index`` set for the labelled episodes and, with
+    ``subtasks``, their ``style`` rows replaced; plus the episodes with stale rows of another run."""
+    from lerobot.datasets.language import LANGUAGE_PERSISTENT
+
+    ep = table.column("episode_index").to_numpy()
+    frame = table.column("frame_index").to_numpy()
+    if layout.SEGMENT_INDEX in table.column_names:
+        seg_col = table.column(layout.SEGMENT_INDEX).to_numpy().astype(np.int64)
+    else:
+        seg_col = np.zeros(len(ep), dtype=np.int64)
+    has_language = LANGUAGE_PERSISTENT in table.column_names
+    persistent = table.column(LANGUAGE_PERSISTENT).to_pylist() if has_language else [[] for _ in ep]
+    episode_rows: dict[int, list[dict]] = {}
+    stale: set[int] = set()
+    for e in (int(e) for e in np.unique(ep) if int(e) in labels_by_ep):
+        rows = np.flatnonzero(ep == e)
+        lab = labels_by_ep[e]
+        seg_col[rows] = lab[frame[rows]]
+        if not (subtasks or has_language):
+            continue
+        kept = [r for r in (persistent[rows[0]] or []) if not (subtasks and r.get("style") == style)]
+        if _disagree(kept, lab, fps):
+            stale.add(e)
         if subtasks:
-            new_persistent = [episode_rows.get(int(e), persistent[i] or []) for i, e in enumerate(ep)]
-            events = (
-                table.column(LANGUAGE_EVENTS)
-                if LANGUAGE_EVENTS in table.column_names
-                else pa.array([[] for _ in range(len(ep))], type=pa.list_(_event_row_type()))
-            )
-            columns += [_persistent_array(new_persistent), events]
-        else:
-            columns += [table.column(n) for n in language]
-        new_table = pa.Table.from_arrays(columns, names=[*keep, layout.SEGMENT_INDEX, *language])
-        tmp = path.with_suffix(path.suffix + ".tmp")
-        write_table_one_row_group_per_episode(new_table, tmp)
-        staged.append((tmp, path))
-    for tmp, path in staged:
-        tmp.replace(path)
-    if stale:
-        warnings.warn(
-            f"{root}: episode(s) {sorted(stale)} keep subtask rows of an earlier `forcemap segment` (other "
-            f"style, or --no-subtasks) that no longer match the new {layout.SEGMENT_INDEX}; rerun with that "
-            "--style to update them",
-            stacklevel=2,
-        )
+            episode_rows[e] = _with_segment_rows(kept, lab, style, fps)
+    return _assemble_table(table, ep, seg_col, persistent, episode_rows, subtasks), stale
 
+
+def _with_segment_rows(kept: list[dict], labels: np.ndarray, style: str, fps: int) -> list[dict]:
+    """``kept`` rows plus one "segment k of K" row of ``style`` per segment, sorted by time."""
+    starts = _starts(labels)
+    ours = [
+        {
+            "role": _ROLE,
+            "content": f"segment {k} of {len(starts)}",
+            "style": style,
+            "timestamp": float(np.float32(start / fps)),
+            "camera": None,
+            "tool_calls": None,
+        }
+        for k, start in enumerate(starts)
+    ]
+    return sorted(kept + ours, key=lambda r: (float(r["timestamp"]), r.get("style") or ""))
+
+
+def _assemble_table(
+    table: Any,
+    ep: np.ndarray,
+    seg_col: np.ndarray,
+    persistent: list[list[dict]],
+    episode_rows: Mapping[int, list[dict]],
+    subtasks: bool,
+) -> Any:
+    """The other columns as they were, then ``segment_index`` and the language columns (new with
+    ``subtasks``, else as they were or absent)."""
+    import pyarrow as pa
+    from lerobot.datasets.language import LANGUAGE_EVENTS, LANGUAGE_PERSISTENT
+
+    language = [n for n in (LANGUAGE_PERSISTENT, LANGUAGE_EVENTS) if subtasks or n in table.column_names]
+    keep = [n for n in table.column_names if n not in (layout.SEGMENT_INDEX, *language)]
+    columns = [table.column(n) for n in keep] + [pa.array(seg_col)]
+    if subtasks:
+        new_persistent = [episode_rows.get(int(e), persistent[i] or []) for i, e in enumerate(ep)]
+        events = (
+            table.column(LANGUAGE_EVENTS)
+            if LANGUAGE_EVENTS in table.column_names
+            else pa.array([[] for _ in range(len(ep))], type=pa.list_(_event_row_type()))
+        )
+        columns += [_persistent_array(new_persistent), events]
+    else:
+        columns += [table.column(n) for n in language]
+    return pa.Table.from_arrays(columns, names=[*keep, layout.SEGMENT_INDEX, *language])
+
+
+def _write_info(root: Path, subtasks: bool) -> None:
+    """``meta/info.json`` with ``segment_index`` (and, with ``subtasks``, the language columns)."""
+    from lerobot.datasets.io_utils import load_info, write_info
+    from lerobot.datasets.language import language_feature_info
+
+    info = load_info(root)
     info.features = {
         **info.features,
         layout.SEGMENT_INDEX: dict(SEGMENT_INDEX_FEATURE),
         **(language_feature_info() if subtasks else {}),
     }
     write_info(info, root)
-    _write_segment_stats(root)
-    refresh_dataset_card(root)  # the card's feature table gains segment_index and the language columns
 
 
 def _starts(labels: np.ndarray) -> np.ndarray:
@@ -451,41 +494,38 @@ def _persistent_array(rows: list[list[dict]]):
 
 
 def _write_segment_stats(root: Path) -> None:
-    """Per-episode stats (meta/episodes) and dataset stats (meta/stats.json) of ``segment_index``."""
-    import pandas as pd
-    import pyarrow.parquet as pq
+    """Per-episode stats (meta/episodes) and dataset stats (meta/stats.json) of ``segment_index``, of the
+    dataset at ``root`` whose data files and info.json already hold it."""
     from lerobot.datasets.compute_stats import aggregate_stats, compute_episode_stats
 
+    meta = read_meta(root)
     feature = {layout.SEGMENT_INDEX: dict(SEGMENT_INDEX_FEATURE)}
-    per_ep: dict[int, dict] = {}
-    for path in _data_files(root):
-        t = pq.read_table(path, columns=["episode_index", layout.SEGMENT_INDEX])
-        ep = t.column("episode_index").to_numpy()
-        seg = t.column(layout.SEGMENT_INDEX).to_numpy()
-        for e in np.unique(ep):
-            per_ep[int(e)] = compute_episode_stats({layout.SEGMENT_INDEX: seg[ep == e]}, feature)
-    for path in sorted((root / "meta" / "episodes").glob("*/*.parquet")):
-        df = pd.read_parquet(path)
+    every = list(range(meta.total_episodes))
+    columns = read_columns(meta, every, ["episode_index", layout.SEGMENT_INDEX])
+    ep, seg = columns["episode_index"], columns[layout.SEGMENT_INDEX]
+    per_ep = {e: compute_episode_stats({layout.SEGMENT_INDEX: seg[ep == e]}, feature) for e in every}
+    for path in sorted((root / EPISODES_DIR).glob("*/*.parquet")):
+        df = read_table(path).to_pandas()
         stats = [per_ep[int(e)][layout.SEGMENT_INDEX] for e in df["episode_index"]]
         for name in stats[0]:
             df[f"stats/{layout.SEGMENT_INDEX}/{name}"] = [np.asarray(s[name]) for s in stats]
-        tmp = path.with_suffix(path.suffix + ".tmp")
-        df.to_parquet(tmp, index=False)
-        tmp.replace(path)
-    total = aggregate_stats([per_ep[e] for e in sorted(per_ep)])[layout.SEGMENT_INDEX]
-    stats_path = root / "meta" / "stats.json"
-    all_stats = json.loads(stats_path.read_text()) if stats_path.exists() else {}
+        df.to_parquet(path, index=False)
+    total = aggregate_stats([per_ep[e] for e in every])[layout.SEGMENT_INDEX]
+    stats_path = root / STATS_FILE
+    all_stats = read_json_object(stats_path) if stats_path.exists() else {}
     all_stats[layout.SEGMENT_INDEX] = {k: np.asarray(v).tolist() for k, v in total.items()}
     stats_path.write_text(json.dumps(all_stats, indent=4))
 
 
 def read_segment_index(dataset: Any) -> dict[int, np.ndarray]:
-    """``{episode: changepoints (K+1,)}`` from a loaded ``LeRobotDataset``'s ``segment_index`` column."""
-    if layout.SEGMENT_INDEX not in dataset.meta.features:
+    """``{episode: changepoints (K+1,)}`` from the ``segment_index`` column of a dataset (a folder, a
+    ``DatasetMeta``, a ``LeRobotDataset`` or its metadata)."""
+    meta = to_meta(dataset)
+    if layout.SEGMENT_INDEX not in meta.features:
         raise ValueError(f"dataset has no {layout.SEGMENT_INDEX!r} feature (run `forcemap segment` first)")
-    table = dataset.hf_dataset.with_format("numpy")
-    ep = np.asarray(table["episode_index"])
-    seg = np.asarray(table[layout.SEGMENT_INDEX]).reshape(-1)
+    columns = read_columns(meta, list(range(meta.total_episodes)), ["episode_index", layout.SEGMENT_INDEX])
+    ep = columns["episode_index"]
+    seg = columns[layout.SEGMENT_INDEX].reshape(-1)
     out = {}
     for e in np.unique(ep):
         lab = seg[ep == e]
@@ -494,146 +534,13 @@ def read_segment_index(dataset: Any) -> dict[int, np.ndarray]:
 
 
 def read_subtasks(dataset: Any, episode: int, *, style: str = "motion") -> list[dict]:
-    """The ``language_persistent`` rows of ``style`` of one episode (sorted by timestamp)."""
+    """The ``language_persistent`` rows of ``style`` of one episode (sorted by timestamp); ``dataset`` as
+    for :func:`read_segment_index`."""
     from lerobot.datasets.language import LANGUAGE_PERSISTENT
 
-    if LANGUAGE_PERSISTENT not in dataset.meta.features:
+    meta = to_meta(dataset)
+    if LANGUAGE_PERSISTENT not in meta.features:
         return []
-    start = int(dataset.meta.episodes[episode]["dataset_from_index"])
-    rows = dataset.hf_dataset[start][LANGUAGE_PERSISTENT] or []
-    return sorted((r for r in rows if r.get("style") == style), key=lambda r: r["timestamp"])
-
-
-# ---- CLI ------------------------------------------------------------------------------------------------
-
-
-def _parse_pairs(items: Sequence[str] | None, what: str) -> dict[str, float]:
-    out = {}
-    for item in items or ():
-        name, sep, value = item.partition("=")
-        if not sep:
-            raise ValueError(f"--{what} takes name=value pairs, got {item!r}")
-        try:
-            number = float(value)
-        except ValueError:
-            raise ValueError(f"--{what} {item!r}: {value!r} is not a number") from None
-        if name.strip() in out:
-            raise ValueError(f"--{what}: {name.strip()!r} given twice")
-        out[name.strip()] = number
-    return out
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--dataset", required=True, help="dataset root folder (written in place)")
-    parser.add_argument(
-        "--repo-id",
-        default="local/forcemap",
-        help="dataset id LeRobot opens the folder under (any string works locally; default local/forcemap)",
-    )
-    parser.add_argument(
-        "--weights",
-        nargs="+",
-        metavar="NAME=V",
-        help="stream weights, e.g. joints=0 position=0.1 wrist_force=0.35 gripper=0.35 finger_force=0.2 "
-        "(unlisted streams: 1)",
-    )
-    parser.add_argument(
-        "--thresholds", nargs="+", metavar="NAME=V", help="keypoint thresholds (fractions of max)"
-    )
-    parser.add_argument(
-        "--mode",
-        choices=MODES,
-        default="geometric",
-        help="how the streams' keypoint densities combine: geometric (default, weighted sum of logs), "
-        "product (of the streams with weight > 0; weights only select) or linear (weighted mean)",
-    )
-    parser.add_argument(
-        "--changepoints",
-        choices=CHANGEPOINT_METHODS,
-        default="peaks",
-        help="peaks (default, deterministic: maxima of the combined density at least --window frames "
-        "apart) or sample (the paper: random draws from it, clustered; see --seed)",
-    )
-    parser.add_argument("--window", type=int, default=64, help="jerk moving-average window, frames")
-    parser.add_argument("--min-run", type=int, default=64, help="frames a run above threshold must last")
-    parser.add_argument(
-        "--grace", type=int, default=4, help="frames a run may dip below threshold without ending (default 4)"
-    )
-    parser.add_argument("--min-segment-length", type=int, default=None, help="frames (default window/2)")
-    parser.add_argument(
-        "--seed",
-        type=int,
-        default=0,
-        help="random seed of --changepoints sample (default 0; peaks ignores it)",
-    )
-    parser.add_argument("--episodes", type=int, nargs="+", help="only these episodes (default all)")
-    parser.add_argument("--style", choices=list(SUBTASK_STYLES), default="motion", help="subtask row style")
-    parser.add_argument(
-        "--no-subtasks",
-        action="store_true",
-        help="write segment_index only, no LeRobot subtask rows (LeRobot 0.6.1's lerobot-dataset-viz "
-        "cannot batch language rows; forcemap viz shows both)",
-    )
-    parser.add_argument("--dry-run", action="store_true", help="print the changepoints, write nothing")
-
-
-def run(args: argparse.Namespace) -> int:
-    config = SegmentationConfig(
-        window=args.window,
-        min_run=args.min_run,
-        grace=args.grace,
-        mode=args.mode,
-        changepoints=args.changepoints,
-        seed=args.seed,
-        min_segment_length=args.min_segment_length,
-    )
-    segs = segment_dataset(
-        args.dataset,
-        weights=_parse_pairs(args.weights, "weights"),
-        thresholds=_parse_pairs(args.thresholds, "thresholds"),
-        config=config,
-        episodes=args.episodes,
-        style=args.style,
-        subtasks=not args.no_subtasks,
-        repo_id=args.repo_id,
-        write=not args.dry_run,
-    )
-    first = next((s.result for s in segs if s.result is not None), None)
-    if first is not None:  # a stream not given in --weights keeps weight 1: say what was used
-        print(
-            "streams (weight, threshold): "
-            + ", ".join(f"{n} ({r.weight:g}, {r.threshold:g})" for n, r in first.streams.items())
-        )
-    for s in segs:
-        dropped = s.result.rejected.tolist() if s.result is not None else []
-        print(
-            f"episode {s.episode_index}: {s.n_segments} segment(s), changepoints {s.changepoints.tolist()}"
-            + (f"; --min-segment-length dropped {dropped}" if dropped else "")
-        )
-
-    def all_dropped(s: EpisodeSegments) -> bool:
-        return s.result is not None and s.result.rejected.size > 0
-
-    single = [s for s in segs if s.n_segments == 1 and not all_dropped(s)]
-    cut = [s for s in segs if s.n_segments == 1 and all_dropped(s)]
-    if cut:
-        shortest = config.min_segment_length or config.window // 2
-        print(
-            f"note: {len(cut)} of {len(segs)} episode(s) found changepoints but --min-segment-length "
-            f"{shortest} (frames) dropped them all: lower it to keep them"
-        )
-    if single:
-        # --window/--min-run count frames: the authors' 64 are 0.39 s at their ~166 Hz recorder
-        fps = float(json.loads((Path(args.dataset) / "meta" / "info.json").read_text())["fps"])
-        scaled = max(5, int(round(AUTHORS_WINDOW_S * fps)))
-        print(
-            f"note: {len(single)} of {len(segs)} episode(s) found no changepoint. --window {args.window} and "
-            f"--min-run {args.min_run} count frames; the authors' 64 frames are {AUTHORS_WINDOW_S:.2f} s at "
-            f"their ~166 Hz, which at this dataset's {fps:g} fps is --window {scaled} --min-run {scaled} "
-            "(the forcemap policy's window at this rate; its own segments='auto' reads the commanded action, "
-            "not the measured pose, so its cuts can differ: fit with segments='dataset' to use these labels)"
-        )
-    if not args.dry_run:
-        what = f"{layout.SEGMENT_INDEX}" + ("" if args.no_subtasks else f" and {args.style} subtasks")
-        print(f"wrote {what} to {args.dataset}")
-    return 0
+    rows = read_columns(meta, [episode], [LANGUAGE_PERSISTENT], name="episode")[LANGUAGE_PERSISTENT]
+    first = rows[0] if len(rows) else None
+    return sorted((r for r in first or [] if r.get("style") == style), key=lambda r: r["timestamp"])

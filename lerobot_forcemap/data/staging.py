@@ -11,6 +11,12 @@ only after success::
     ...write the dataset to work...          # on error: shutil.rmtree(work)
     replace_dir(out, work)
 
+Editing a dataset goes the same way: :func:`edit_dir` hands out a copy of it beside it (videos and
+images hard-linked, never edited) and swaps the copy in only when the edit is done::
+
+    with edit_dir(root) as work:             # on error: work removed, root as it was
+        ...rewrite files under work...
+
 ``--overwrite`` replaces a LeRobot dataset (a folder with ``meta/info.json``) or an empty folder,
 never a folder of something else: a mistyped ``--out`` must not delete someone's files, nor the current
 folder (``--out .``), which would leave the shell in a deleted folder.
@@ -18,10 +24,13 @@ folder (``--out .``), which would leave the shell in a deleted folder.
 
 from __future__ import annotations
 
+import os
 import shutil
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["check_output", "partial_dir", "replace_dir"]
+__all__ = ["check_output", "partial_dir", "replace_dir", "edit_dir"]
 
 
 def check_output(out: str | Path, *, overwrite: bool) -> Path:
@@ -33,18 +42,22 @@ def check_output(out: str | Path, *, overwrite: bool) -> Path:
         raise ValueError(f"output {out} exists; give --overwrite (overwrite=True) to replace it")
     if not out.is_dir():
         raise ValueError(f"output {out} is a file, not a dataset folder; not replacing it")
-    cwd = Path.cwd()
-    if cwd.is_relative_to(_absolute(out)):
-        raise ValueError(
-            f"output {out} is the current folder or holds it ({cwd}); replacing it would leave this shell in "
-            "a deleted folder: run from elsewhere or pick another --out"
-        )
+    _refuse_current_folder(out, "output", "pick another --out")
     if not (out / "meta" / "info.json").is_file() and any(out.iterdir()):
         raise ValueError(
             f"output {out} is not a LeRobot dataset (no meta/info.json) and not empty; --overwrite only "
             "replaces datasets: remove it yourself or pick another --out"
         )
     return out
+
+
+def _refuse_current_folder(out: Path, what: str, remedy: str) -> None:
+    cwd = Path.cwd()
+    if cwd.is_relative_to(_absolute(out)):
+        raise ValueError(
+            f"{what} {out} is the current folder or holds it ({cwd}); replacing it would leave this shell in "
+            f"a deleted folder: run from elsewhere or {remedy}"
+        )
 
 
 def _absolute(out: str | Path) -> Path:
@@ -70,7 +83,43 @@ def replace_dir(out: Path, new: Path) -> None:
         old = out.parent / f".{out.name}.old"
         shutil.rmtree(old, ignore_errors=True)
         out.rename(old)
-        new.rename(out)
+        try:
+            new.rename(out)
+        except BaseException:
+            old.rename(out)  # the old one back where it was
+            raise
         shutil.rmtree(old)
     else:
         new.rename(out)
+
+
+@contextmanager
+def edit_dir(root: str | Path, *, link: Sequence[str] = ("videos", "images")) -> Iterator[Path]:
+    """A copy of the folder ``root`` beside it to edit, swapped in for ``root`` when the block ends
+    without error; on any error the copy is removed and ``root`` stays as it was, byte for byte.
+
+    Files under the top-level folders ``link`` are hard links (large, and never to be edited: a write
+    to one would change the original too); everything else is copied. A symlinked ``root`` has its
+    target edited. Refused when the current folder is inside ``root`` (it would be deleted).
+    """
+    root = Path(root).resolve()
+    _refuse_current_folder(root, "dataset", "give its path from outside it")
+    work = partial_dir(root)
+    linked = {root / name for name in link}
+
+    def copy(src: str, dst: str) -> None:
+        if any(Path(src).is_relative_to(folder) for folder in linked):
+            try:
+                os.link(src, dst)
+                return
+            except OSError:  # a file system without hard links: copy
+                pass
+        shutil.copy2(src, dst)
+
+    try:
+        shutil.copytree(root, work, symlinks=True, copy_function=copy)
+        yield work
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+    replace_dir(root, work)

@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.signal import butter, sosfiltfilt
 
+from lerobot_forcemap._validation import check_choice, check_int, check_real
 from lerobot_forcemap.data.recorder import Recording
 from lerobot_forcemap.geometry import quat_rotate, slerp_sequence
 
@@ -64,7 +65,7 @@ __all__ = [
 
 F64 = NDArray[np.float64]
 
-# Sign that turns the recorder's base-frame wrench into SPEC §3's convention (reaction on the robot).
+# Sign that turns the recorder's base-frame wrench into the project's convention (reaction on the robot).
 LAB_WRENCH_SIGN = 1.0
 # Raw gripper reading that means fully closed (counts 0 = open .. 100 = closed; GBTI max 100, lab 90).
 GRIPPER_FULL_SCALE = 100.0
@@ -120,7 +121,7 @@ class AlignedRecording:
     times (T,) s from the first frame; source_times (T,) the same instants on the recorder's clock
     (s since the epoch); fps: the resampling rate or None (``n_samples`` or native time base).
     joint_positions (T, 6) rad; positions (T, 3) m; orientations (T, 4) w x y z (sign-continuous);
-    force (T, 3) N and torque (T, 3) N·m: base frame, tared, reaction on the robot (SPEC §3);
+    force (T, 3) N and torque (T, 3) N·m: base frame, tared, reaction on the robot;
     gripper (T,) 0 open .. 1 closed (raw / ``gripper_full_scale``) or None;
     finger_force (T,) raw finger-force counts (GBTI, uncalibrated, not tared) or None.
     Diagnostics: bias (the tare), time_cleaning (one per stream), trimmed_s (time dropped at the start
@@ -202,30 +203,33 @@ def clean_times(
         raise ValueError(
             f"stream {stream!r}: sample {i} repeats the timestamp of sample {i - 1} ({n_dup} repeats in all)"
         )
-    if on_duplicate not in ("merge", "raise"):
-        raise ValueError(f"on_duplicate must be 'merge' or 'raise', got {on_duplicate!r}")
-    if n_dup:
-        starts = np.concatenate([[True], ~dup])  # first sample of each run of equal times
-        group = np.cumsum(starts) - 1
-        counts = np.bincount(group).astype(np.float64)
-        if quaternion_columns is not None:
-            v = v.copy()
-            q = v[:, quaternion_columns]
-            first = q[np.flatnonzero(starts)][group]  # each sample's run-first quaternion
-            q[np.einsum("ij,ij->i", q, first) < 0] *= -1.0
-            v[:, quaternion_columns] = q
-        sums = np.zeros((group[-1] + 1, v.shape[1]))
-        np.add.at(sums, group, v)
-        t_out, v_out = t[starts], sums / counts[:, None]
-        if quaternion_columns is not None:
-            q = v_out[:, quaternion_columns]
-            v_out[:, quaternion_columns] = q / np.linalg.norm(q, axis=1, keepdims=True)
-    else:
-        t_out, v_out = t, v
+    check_choice("on_duplicate", on_duplicate, ("merge", "raise"))
+    t_out, v_out = _merge_runs(t, v, dup, quaternion_columns) if n_dup else (t, v)
     if len(t_out) < 2:
         raise ValueError(f"stream {stream!r}: fewer than 2 distinct timestamps ({len(t)} samples)")
     info = TimeCleaning(stream, len(t), len(t_out), n_dup, int(np.argmax(dup)) + 1 if n_dup else None)
     return t_out, v_out, info
+
+
+def _merge_runs(t: F64, v: F64, dup: np.ndarray, quaternion_columns: slice | None) -> tuple[F64, F64]:
+    """One sample per run of equal times (``dup[i]``: sample i+1 repeats sample i's time): the mean of
+    the run's values, quaternions sign-aligned to the run's first before averaging and renormalised."""
+    starts = np.concatenate([[True], ~dup])  # first sample of each run of equal times
+    group = np.cumsum(starts) - 1
+    counts = np.bincount(group).astype(np.float64)
+    if quaternion_columns is not None:
+        v = v.copy()
+        q = v[:, quaternion_columns]
+        first = q[np.flatnonzero(starts)][group]  # each sample's run-first quaternion
+        q[np.einsum("ij,ij->i", q, first) < 0] *= -1.0
+        v[:, quaternion_columns] = q
+    sums = np.zeros((group[-1] + 1, v.shape[1]))
+    np.add.at(sums, group, v)
+    t_out, v_out = t[starts], sums / counts[:, None]
+    if quaternion_columns is not None:
+        q = v_out[:, quaternion_columns]
+        v_out[:, quaternion_columns] = q / np.linalg.norm(q, axis=1, keepdims=True)
+    return t_out, v_out
 
 
 # ---- wrench -----------------------------------------------------------------------------------------
@@ -399,18 +403,61 @@ def align_recording(
     """
     if fps is not None and n_samples is not None:
         raise ValueError("give fps or n_samples, not both")
-    if fps is not None and not (np.isfinite(fps) and fps > 0):
-        raise ValueError(f"fps must be a positive number, got {fps}")
-    if n_samples is not None and int(n_samples) < 2:
-        raise ValueError(f"n_samples must be >= 2, got {n_samples}")
-    if not (np.isfinite(gripper_full_scale) and gripper_full_scale > 0):
-        raise ValueError(f"gripper_full_scale must be a positive number, got {gripper_full_scale}")
-    messages: list[str] = []
+    check_real("fps", fps, low=0, low_open=True, none_ok=True)
+    check_int("n_samples", n_samples, low=2, none_ok=True)
+    check_real("gripper_full_scale", gripper_full_scale, low=0, low_open=True)
+    notes = _Notes(rec.name)
+    cleaned, cleaning = _clean_streams(rec, on_duplicate, notes)
+    rates = _stream_rates(rec.name, cleaned, notes)
+    start, stop, trimmed = _overlap(rec, cleaned, notes)
+    rel, query = _time_base(rec.name, cleaned, start, stop, fps, n_samples)
+    tw = cleaned["wrench"][0]
+    wrench_base, bias = _base_wrench(cleaned, tare, tare_window_s, wrench_sign, notes)
+    if force_lowpass_hz is not None:
+        wrench_base = lowpass(wrench_base, rates["wrench"], force_lowpass_hz)
+    wrench_q = interp_linear(tw, wrench_base, query)
+    tp, pose = cleaned["pose"]
+    tj, joints = cleaned["joint"]
+    return AlignedRecording(
+        name=rec.name,
+        times=rel,
+        source_times=query,
+        fps=float(fps) if fps is not None else None,
+        joint_positions=interp_linear(tj, joints, query),
+        positions=interp_linear(tp, pose[:, :3], query),
+        orientations=slerp_sequence(tp, pose[:, 3:], query),
+        force=wrench_q[:, :3],
+        torque=wrench_q[:, 3:],
+        gripper=_gripper(rec, cleaned, query, gripper_full_scale),
+        finger_force=interp_linear(*cleaned["finger_force"], query)[:, 0]
+        if "finger_force" in cleaned
+        else None,
+        bias=bias,
+        time_cleaning=tuple(cleaning),
+        trimmed_s=trimmed,
+        source_rate_hz=rates,
+        force_lowpass_hz=force_lowpass_hz,
+        warnings=tuple(notes.messages),
+    )
 
-    def note(msg: str) -> None:
-        messages.append(msg)
-        warnings.warn(f"{rec.name}: {msg}", stacklevel=3)
 
+class _Notes:
+    """What :func:`align_recording` says about a recording: kept for ``AlignedRecording.warnings`` and
+    issued as warnings naming the recording (pointing at ``align_recording``'s caller)."""
+
+    def __init__(self, name: str):
+        self.name = name
+        self.messages: list[str] = []
+
+    def __call__(self, msg: str) -> None:
+        self.messages.append(msg)
+        warnings.warn(f"{self.name}: {msg}", stacklevel=4)
+
+
+def _clean_streams(
+    rec: Recording, on_duplicate: DuplicatePolicy, notes: _Notes
+) -> tuple[dict[str, tuple[F64, F64]], list[TimeCleaning]]:
+    """Every stream through :func:`clean_times` (the pose's quaternion columns kept unit and signed)."""
     cleaned: dict[str, tuple[F64, F64]] = {}
     cleaning: list[TimeCleaning] = []
     for stream, (t, v) in rec.streams.items():
@@ -424,24 +471,37 @@ def align_recording(
         cleaned[stream] = (tc, vc)
         cleaning.append(info)
         if info.duplicates_collapsed:
-            note(
+            notes(
                 f"stream {stream!r}: {info.duplicates_collapsed} sample(s) repeat the previous timestamp "
                 f"(first at sample {info.first_duplicate_index}); collapsed to their mean"
             )
+    return cleaned, cleaning
+
+
+def _stream_rates(name: str, cleaned: dict[str, tuple[F64, F64]], notes: _Notes) -> dict[str, float]:
+    """Median sample rate per stream (one outside :data:`STREAM_RATE_RANGE_HZ` means other time units);
+    gaps in a stream are noted."""
     rates = {s: float(1.0 / np.median(np.diff(t))) for s, (t, _) in cleaned.items()}
     lo_hz, hi_hz = STREAM_RATE_RANGE_HZ
     for stream, rate in rates.items():
         if not lo_hz <= rate <= hi_hz:
             raise ValueError(
-                f"recording {rec.name!r}: stream {stream!r} has a median sample step of "
+                f"recording {name!r}: stream {stream!r} has a median sample step of "
                 f"{1.0 / rate:.3g} s ({rate:.3g} Hz), outside the plausible {lo_hz:g} Hz .. {hi_hz:g} Hz; "
                 "timestamps must be seconds (plain) or [sec, nsec] rows: are they ms, µs or ns?"
             )
     for stream, (t, _) in cleaned.items():
         gap = describe_gaps(t)
         if gap:
-            note(f"stream {stream!r}: {gap}; the frames across it are interpolated")
+            notes(f"stream {stream!r}: {gap}; the frames across it are interpolated")
+    return rates
 
+
+def _overlap(
+    rec: Recording, cleaned: dict[str, tuple[F64, F64]], notes: _Notes
+) -> tuple[float, float, tuple[float, float]]:
+    """``(start, stop)`` of the span every stream covers, and the seconds trimmed at each end (noted when
+    longer than :data:`TRIM_NOTE_S`)."""
     start = max(t[0] for t, _ in cleaned.values())
     stop = min(t[-1] for t, _ in cleaned.values())
     if stop <= start:
@@ -461,11 +521,22 @@ def align_recording(
             )
             if seconds > 0
         ]
-        note(
+        notes(
             f"the streams cover different time spans; kept their overlap {start - t0:.3f}..{stop - t0:.3f} s, "
             f"dropping {' and '.join(dropped)}"
         )
+    return start, stop, trimmed
 
+
+def _time_base(
+    name: str,
+    cleaned: dict[str, tuple[F64, F64]],
+    start: float,
+    stop: float,
+    fps: float | None,
+    n_samples: int | None,
+) -> tuple[F64, F64]:
+    """``(rel, query)``: frame times from the first frame, and the same on the recorder's clock."""
     # Relative frame times are computed directly (not as query - start): epoch seconds in float64
     # carry only ~2e-7 s resolution.
     if fps is not None:
@@ -480,62 +551,44 @@ def align_recording(
         query = tj[(tj >= start) & (tj <= stop)]
         rel = query - query[0]
     if len(query) < 2:
-        raise ValueError(f"recording {rec.name!r}: only {len(query)} frame(s) in {stop - start:.3f} s")
+        raise ValueError(f"recording {name!r}: only {len(query)} frame(s) in {stop - start:.3f} s")
+    return rel, query
 
-    # Wrench: tare (tool frame) -> rotate to base at the wrench timestamps -> optional low-pass.
+
+def _base_wrench(
+    cleaned: dict[str, tuple[F64, F64]], tare: TareMethod, window_s: float, sign: float, notes: _Notes
+) -> tuple[F64, WrenchBias]:
+    """The wrench tared in the tool frame and rotated to the base at its own timestamps: (Tw, 6)."""
     tw, w = cleaned["wrench"]
-    f_tared, tq_tared, bias = tare_wrench(w[:, :3], w[:, 3:], tw, method=tare, window_s=tare_window_s)
+    f_tared, tq_tared, bias = tare_wrench(w[:, :3], w[:, 3:], tw, method=tare, window_s=window_s)
     if bias.window != "none" and bias.disagreement_n > TARE_DISAGREEMENT_WARN_N:
-        note(
+        notes(
             f"tare: rest windows at start and end disagree by {bias.disagreement_n:.1f} N; used the "
             f"'{bias.window}' window (force std {np.round(bias.force_std, 2).tolist()} N)"
         )
     if bias.window != "none" and float(bias.force_std.max()) >= TARE_QUIET_STD_N:
-        note(
+        notes(
             f"tare: no quiet rest window (largest force std {float(bias.force_std.max()):.2f} N in the "
             f"'{bias.window}' window); the bias may include a hand's force"
         )
     tp, pose = cleaned["pose"]
     q_at_wrench = slerp_sequence(tp, pose[:, 3:], tw)
-    f_base, tq_base = wrench_to_base(f_tared, tq_tared, q_at_wrench, sign=wrench_sign)
-    wrench_base = np.concatenate([f_base, tq_base], axis=1)
-    if force_lowpass_hz is not None:
-        wrench_base = lowpass(wrench_base, rates["wrench"], force_lowpass_hz)
-    wrench_q = interp_linear(tw, wrench_base, query)
+    f_base, tq_base = wrench_to_base(f_tared, tq_tared, q_at_wrench, sign=sign)
+    return np.concatenate([f_base, tq_base], axis=1), bias
 
-    tj, joints = cleaned["joint"]
-    gripper = finger = None
-    if "gripper" in cleaned:
-        tg, g = cleaned["gripper"]
-        raw = rec.gripper
-        bad = (raw < 0) | (raw > gripper_full_scale)
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise ValueError(
-                f"recording {rec.name!r}: gripper reading {raw[i]} at sample {i} outside [0, {gripper_full_scale}] "
-                f"(set gripper_full_scale)"
-            )
-        gripper = interp_linear(tg, g, query)[:, 0] / gripper_full_scale
-    if "finger_force" in cleaned:
-        tf, ff = cleaned["finger_force"]
-        finger = interp_linear(tf, ff, query)[:, 0]
 
-    return AlignedRecording(
-        name=rec.name,
-        times=rel,
-        source_times=query,
-        fps=float(fps) if fps is not None else None,
-        joint_positions=interp_linear(tj, joints, query),
-        positions=interp_linear(tp, pose[:, :3], query),
-        orientations=slerp_sequence(tp, pose[:, 3:], query),
-        force=wrench_q[:, :3],
-        torque=wrench_q[:, 3:],
-        gripper=gripper,
-        finger_force=finger,
-        bias=bias,
-        time_cleaning=tuple(cleaning),
-        trimmed_s=trimmed,
-        source_rate_hz=rates,
-        force_lowpass_hz=force_lowpass_hz,
-        warnings=tuple(messages),
-    )
+def _gripper(
+    rec: Recording, cleaned: dict[str, tuple[F64, F64]], query: F64, full_scale: float
+) -> F64 | None:
+    """Gripper opening at the frames, raw / ``full_scale``; a raw reading outside [0, full_scale] is refused."""
+    if "gripper" not in cleaned:
+        return None
+    raw = rec.gripper
+    bad = (raw < 0) | (raw > full_scale)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(
+            f"recording {rec.name!r}: gripper reading {raw[i]} at sample {i} outside [0, {full_scale}] "
+            f"(set gripper_full_scale)"
+        )
+    return interp_linear(*cleaned["gripper"], query)[:, 0] / full_scale

@@ -8,9 +8,10 @@ the same), so the force features and the segments ``forcemap segment`` writes do
 ``observation.finger_force``, ``contact_force``, ``observation.ee_pose``,
 ``observation.environment_state``, ``segment_index``, ``demo_phase``, ...) as time series named per
 dimension, and the LeRobot subtasks (``language_persistent``, one text row per segment start) under
-``subtasks/<style>``. Numeric features go in as whole columns (no per-frame Python loop); camera
-frames are decoded one by one, as LeRobot does. Needs ``rerun-sdk`` (the ``viz`` extra, as for
-``lerobot-dataset-viz``).
+``subtasks/<style>``. Numeric features go in as whole columns (no per-frame Python loop), read by
+:mod:`.reader`; camera frames are decoded one by one by LeRobot, as ``lerobot-dataset-viz`` does. Needs
+``rerun-sdk`` (the ``viz`` extra, as for ``lerobot-dataset-viz``). The command line is
+``lerobot_forcemap/cli/viz.py``.
 
     forcemap viz --dataset datasets/press --episode 0                  # opens the Rerun viewer
     forcemap viz --dataset datasets/press --episode 0 --save ep0.rrd   # writes a recording file
@@ -18,7 +19,6 @@ frames are decoded one by one, as LeRobot does. Needs ``rerun-sdk`` (the ``viz``
 
 from __future__ import annotations
 
-import argparse
 import os
 import shutil
 import sys
@@ -29,10 +29,11 @@ from typing import Any
 import numpy as np
 
 from lerobot_forcemap import layout
-from lerobot_forcemap.data.schema import check_data_columns, numeric_feature_keys, require_dataset_root
+from lerobot_forcemap.data.reader import DatasetMeta, lerobot_dataset, read_columns, read_meta, to_meta
+from lerobot_forcemap.data.schema import numeric_feature_keys
 from lerobot_forcemap.data.segment import SUBTASK_STYLES, read_subtasks
 
-__all__ = ["ENTITY_NAMES", "log_episode", "visualize_episode", "add_arguments", "run"]
+__all__ = ["ENTITY_NAMES", "log_episode", "visualize_episode", "viewer_command"]
 
 #: entity paths that differ from the feature key, as ``lerobot-dataset-viz`` names them
 ENTITY_NAMES = {layout.OBS_STATE: "state"}
@@ -49,43 +50,64 @@ def _import_rerun():
     return rr
 
 
-def _episode_rows(dataset: Any, episode: int) -> tuple[int, int]:
-    if episode not in range(dataset.meta.total_episodes):
-        raise ValueError(
-            f"--episode {episode}: the dataset has episodes 0..{dataset.meta.total_episodes - 1}"
-        )
-    ep = dataset.meta.episodes[episode]
-    return int(ep["dataset_from_index"]), int(ep["dataset_to_index"])
+def _check_episode(meta: DatasetMeta, episode: int) -> None:
+    if episode not in range(meta.total_episodes):
+        raise ValueError(f"--episode {episode}: the dataset has episodes 0..{meta.total_episodes - 1}")
+
+
+def _feature_names(feature: dict[str, Any], key: str) -> list[str]:
+    """Per-dimension names, as ``lerobot-dataset-viz`` gives them: the feature's names, else
+    ``<key>_<i>``."""
+    dim = feature["shape"][-1]
+    names = feature.get("names")
+    if isinstance(names, list) and len(names) == dim:
+        return [str(name) for name in names]
+    return [f"{key}_{d}" for d in range(dim)]
 
 
 def log_episode(dataset: Any, episode: int, recording: Any) -> dict[str, int]:
-    """Log episode ``episode`` of a loaded ``LeRobotDataset`` to a Rerun ``recording`` (a
-    ``rerun.RecordingStream``). Returns ``{entity path: rows logged}``."""
-    from lerobot.scripts.lerobot_dataset_viz import get_feature_names, to_hwc_uint8_numpy
-
+    """Log episode ``episode`` of a dataset (a folder, a ``DatasetMeta``, a ``LeRobotDataset`` or its
+    metadata) to a Rerun ``recording`` (a ``rerun.RecordingStream``). Returns ``{entity path: rows
+    logged}``."""
     rr = _import_rerun()
-    start, stop = _episode_rows(dataset, episode)
-    table = dataset.hf_dataset.with_format("numpy")[start:stop]
-    frames = np.asarray(table["frame_index"], dtype=np.int64)
-    times = np.asarray(table["timestamp"], dtype=np.float64)
+    meta = to_meta(dataset)
+    keys = numeric_feature_keys(meta.features)
+    columns = read_columns(meta, [episode], ["frame_index", "timestamp", *keys], name="--episode")
+    frames = np.asarray(columns["frame_index"], dtype=np.int64)
+    times = np.asarray(columns["timestamp"], dtype=np.float64)
+    logged = _log_features(rr, recording, meta, episode, columns, frames, times)
+    logged |= _log_subtasks(rr, recording, meta, episode, frames, times)
+    logged |= _log_cameras(rr, recording, meta, episode, frames, times)
+    return logged
+
+
+def _log_features(rr, recording, meta: DatasetMeta, episode: int, columns, frames, times) -> dict[str, int]:
+    """Every numeric feature as a time series, one line per dimension."""
     indexes = [rr.TimeColumn("frame_index", sequence=frames), rr.TimeColumn("timestamp", timestamp=times)]
     logged: dict[str, int] = {}
-    for key in numeric_feature_keys(dataset.meta.features):
-        values = np.asarray(table[key], dtype=np.float64).reshape(len(frames), -1)
+    for key in numeric_feature_keys(meta.features):
+        values = np.asarray(columns[key], dtype=np.float64).reshape(len(frames), -1)
         bad = ~np.isfinite(values).all(axis=1)
         if bad.any():  # logged as they are (gaps in the plot), but said: fit would refuse this episode
             warnings.warn(
                 f"episode {episode}: {key} is not finite in {int(bad.sum())} frame(s), first at frame "
                 f"{int(frames[bad.argmax()])} (drawn as gaps)",
-                stacklevel=2,
+                stacklevel=3,
             )
         entity = ENTITY_NAMES.get(key, key)
-        if values.shape[1] > 1 or dataset.features[key].get("names"):
-            recording.log(entity, rr.SeriesLines(names=get_feature_names(dataset, key)), static=True)
+        if values.shape[1] > 1 or meta.features[key].get("names"):
+            names = _feature_names(meta.features[key], key)
+            recording.log(entity, rr.SeriesLines(names=names), static=True)
         recording.send_columns(entity, indexes=indexes, columns=rr.Scalars.columns(scalars=values))
         logged[entity] = len(frames)
+    return logged
+
+
+def _log_subtasks(rr, recording, meta: DatasetMeta, episode: int, frames, times) -> dict[str, int]:
+    """The LeRobot subtask rows of each style, one text row at the frame each starts at."""
+    logged: dict[str, int] = {}
     for style in SUBTASK_STYLES:
-        rows = read_subtasks(dataset, episode, style=style)
+        rows = read_subtasks(meta, episode, style=style)
         if rows:
             at = np.array([r["timestamp"] for r in rows], dtype=np.float64)
             # the frame each row starts at (its timestamp is that frame's)
@@ -99,12 +121,24 @@ def log_episode(dataset: Any, episode: int, recording: Any) -> dict[str, int]:
                 columns=rr.TextLog.columns(text=[str(r["content"]) for r in rows]),
             )
             logged[f"subtasks/{style}"] = len(rows)
-    for key in dataset.meta.camera_keys:
-        for i in range(start, stop):
-            recording.set_time("frame_index", sequence=int(frames[i - start]))
-            recording.set_time("timestamp", timestamp=float(times[i - start]))
-            recording.log(key, rr.Image(to_hwc_uint8_numpy(dataset[i][key])))
-        logged[key] = stop - start
+    return logged
+
+
+def _log_cameras(rr, recording, meta: DatasetMeta, episode: int, frames, times) -> dict[str, int]:
+    """Camera frames, decoded by LeRobot (only opened when the dataset has cameras)."""
+    if not meta.camera_keys:
+        return {}
+    from lerobot.scripts.lerobot_dataset_viz import to_hwc_uint8_numpy
+
+    dataset = lerobot_dataset(meta)
+    start = meta.episodes[episode].start
+    logged: dict[str, int] = {}
+    for key in meta.camera_keys:
+        for i in range(len(frames)):
+            recording.set_time("frame_index", sequence=int(frames[i]))
+            recording.set_time("timestamp", timestamp=float(times[i]))
+            recording.log(key, rr.Image(to_hwc_uint8_numpy(dataset[start + i][key])))
+        logged[key] = len(frames)
     return logged
 
 
@@ -113,10 +147,7 @@ def visualize_episode(
 ) -> tuple[Path | None, dict[str, int]]:
     """Open the dataset at ``root`` and log one episode: to the file ``save`` (``.rrd``), else to a
     spawned Rerun viewer. Returns the file (or None) and the entities logged."""
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lazy: heavy import
-
-    root = require_dataset_root(root, "--dataset")
-    check_data_columns(root)
+    meta = read_meta(root, repo_id=repo_id, name="--dataset")
     if save is not None and Path(save).is_dir():
         raise ValueError(
             f"--save {save}: is a folder; give a file name such as {Path(save) / f'episode_{episode}.rrd'}"
@@ -126,16 +157,15 @@ def visualize_episode(
     if save is None:
         _put_viewer_on_path()
     rr = _import_rerun()
-    dataset = LeRobotDataset(repo_id or f"local/{root.name}", root=root)
-    _episode_rows(dataset, episode)  # a bad episode fails before a viewer or file is opened
-    recording = rr.RecordingStream(application_id=f"{dataset.repo_id}/episode_{episode}")
+    _check_episode(meta, episode)  # a bad episode fails before a viewer or file is opened
+    recording = rr.RecordingStream(application_id=f"{meta.repo_id}/episode_{episode}")
     if save is not None:
         save = Path(save)
         save.parent.mkdir(parents=True, exist_ok=True)
         recording.save(str(save))
     else:
         recording.spawn()
-    logged = log_episode(dataset, episode, recording)
+    logged = log_episode(meta, episode, recording)
     recording.flush()
     return save, logged
 
@@ -183,23 +213,3 @@ def _viewer_listening() -> bool:
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         s.settimeout(0.2)
         return s.connect_ex(("127.0.0.1", VIEWER_PORT)) == 0
-
-
-# ---- CLI ------------------------------------------------------------------------------------------------
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--dataset", required=True, help="dataset root folder")
-    parser.add_argument("--episode", type=int, default=0, help="episode index (default 0)")
-    parser.add_argument(
-        "--save", default=None, help="write a .rrd recording here instead of opening a viewer"
-    )
-    parser.add_argument("--repo-id", default=None)
-
-
-def run(args: argparse.Namespace) -> int:
-    path, logged = visualize_episode(args.dataset, args.episode, save=args.save, repo_id=args.repo_id)
-    print(f"episode {args.episode}: " + ", ".join(f"{k} ({n})" for k, n in logged.items()))
-    if path is not None:
-        print(f"wrote {path} (open with: {viewer_command() or 'rerun'} {path})")
-    return 0

@@ -456,26 +456,19 @@ def _check_force_figures(record: Any, where: str) -> None:
 
 def _read_table(root: Path) -> tuple[dict[str, np.ndarray], list[str]]:
     """Numeric 1-D features of a LeRobot v3 dataset as ``{key: (rows, width)}`` (episode_index,
-    timestamp, frame_index as ``(rows,)``), read with pyarrow (no video decoding); + env-state names."""
-    import pyarrow.parquet as pq
+    timestamp, frame_index as ``(rows,)``), read by ``lerobot_forcemap.data.reader`` (no video
+    decoding); + env-state names."""
+    from lerobot_forcemap.data.reader import read_columns, read_meta
 
-    files = sorted((root / "data").glob("*/*.parquet"))
-    if not files:
-        raise ValueError(f"{root}: no data/*/*.parquet (not a LeRobot v3 dataset)")
-    features = json.loads((root / "meta" / "info.json").read_text())["features"]
+    meta = read_meta(root)
+    features = meta.features
     keys = [
         k
         for k, ft in features.items()
         if ft["dtype"] not in ("image", "video", "string", "language") and len(ft["shape"]) == 1
     ]
-    parts: dict[str, list[np.ndarray]] = {k: [] for k in keys}
-    for path in files:
-        table = pq.read_table(path, columns=[k for k in keys])
-        for k in keys:
-            values = table.column(k).to_numpy(zero_copy_only=False)
-            arr = np.stack(values) if values.dtype == object else values
-            parts[k].append(arr.reshape(len(arr), -1))
-    out = {k: np.concatenate(v) for k, v in parts.items()}
+    cols = read_columns(meta, list(range(meta.total_episodes)), keys)
+    out = {k: v.reshape(len(v), -1) for k, v in cols.items()}
     for k in ("episode_index", "timestamp", "frame_index"):
         out[k] = out[k][:, 0]
     names = list(features.get("observation.environment_state", {}).get("names") or [])

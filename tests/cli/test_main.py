@@ -111,3 +111,42 @@ def test_warnings_are_lines_naming_the_command_not_our_source(tmp_path, capsys, 
     assert err.startswith("forcemap fit: warning: episode 3: no gripper stream\n"), err
     assert ".py:" not in err
     assert warnings.formatwarning("x", UserWarning, "f.py", 1).startswith("f.py:1:")  # restored afterwards
+
+
+#: each command's path error, raised before LeRobot (or torch) is imported
+FAST_PATH_ERRORS = [
+    (["fit", "--dataset", "{missing}", "--out", "{tmp}/out"], "--dataset {missing}: not a LeRobot dataset"),
+    (["segment", "--dataset", "{missing}"], "--dataset {missing}: not a LeRobot dataset"),
+    (
+        ["viz", "--dataset", "{missing}", "--save", "{tmp}/ep.rrd"],
+        "--dataset {missing}: not a LeRobot dataset",
+    ),
+    (["convert", "{missing}/press.h5", "--out", "{tmp}/out"], "input file not found: {missing}/press.h5"),
+    (["push", "--policy", "{missing}", "--repo-id", "a/b"], "{missing}: not a policy checkpoint folder"),
+    (["push", "--dataset", "{missing}", "--repo-id", "a/b"], "{missing}: not a LeRobot dataset"),
+]
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    FAST_PATH_ERRORS,
+    ids=["fit", "segment", "viz", "convert", "push-policy", "push-dataset"],
+)
+def test_a_missing_path_fails_before_the_heavy_imports(argv, message, tmp_path):
+    """LeRobot and torch take 10-20 s to import: a mistyped path is said before that."""
+    script = (
+        "import sys\n"
+        "from lerobot_forcemap.cli import main\n"
+        "try:\n"
+        "    main(sys.argv[1:])\n"
+        "except ValueError as err:\n"
+        "    print(sorted(m for m in ('lerobot', 'torch') if m in sys.modules))\n"
+        "    print(err)\n"
+    )
+    fill = {"missing": str(tmp_path / "nonexistent"), "tmp": str(tmp_path)}
+    args = [a.format(**fill) for a in argv]
+    out = subprocess.run([sys.executable, "-c", script, *args], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    imported, error = out.stdout.splitlines()[:2]
+    assert imported == "[]", (args, imported)
+    assert message.format(**fill) in error

@@ -331,7 +331,7 @@ def test_recorder_content_problems_are_named(tmp_path):
     sources = json.loads((tmp_path / "o1" / "meta" / "forcemap_sources.json").read_text())
     assert "`camera_info`" in card and "`joint_state_info/joint_accelerations`" in card
     assert "camera_info" in json.dumps(sources)
-    with pytest.raises(ValueError, match="--gripper-full-scale must be a positive number, got nan"):
+    with pytest.raises(ValueError, match="--gripper-full-scale: must be a finite number > 0, got nan"):
         convert_recordings([good], tmp_path / "o2", fps=20, progress=False, gripper_full_scale=float("nan"))
 
 

@@ -415,3 +415,33 @@ def test_a_card_that_cannot_be_refreshed_says_so(dataset):
     with pytest.warns(UserWarning, match=r"dataset card not refreshed .* neither the card's arguments"):
         write_segments(dataset, {0: np.zeros(150, int)})
     assert json.loads(card.read_text())["dataset_description"] == "# hand-written"
+
+
+def _files(root: Path) -> dict[str, bytes]:
+    return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+@pytest.mark.parametrize("writer", ["_write_info", "_write_segment_stats", "refresh_dataset_card"])
+@pytest.mark.parametrize("segmented_before", [False, True])
+def test_a_failure_part_way_leaves_the_dataset_as_it_was(dataset, monkeypatch, writer, segmented_before):
+    """A writer of a later file failing after the data files were rewritten: every file of the dataset
+    keeps its bytes, and no half-written copy is left beside it."""
+    import lerobot_forcemap.data.segment as seg
+
+    if segmented_before:
+        segment_dataset(dataset, config=CONFIG, progress=False)
+    before = _files(dataset)
+
+    def broken(*args, **kwargs):
+        raise OSError("No space left on device")
+
+    monkeypatch.setattr(seg, writer, broken)
+    with pytest.raises(OSError, match="No space left on device"):
+        segment_dataset(
+            dataset, config=SegmentationConfig(window=12, min_run=6), style="subtask", progress=False
+        )
+    assert _files(dataset) == before
+    assert not [p.name for p in dataset.parent.iterdir() if p.name.startswith(".")]
+    monkeypatch.undo()
+    segment_dataset(dataset, config=CONFIG, progress=False)  # and the dataset is fine to write again
+    assert set(read_segment_index(dataset)) == {0, 1}

@@ -1,10 +1,11 @@
-"""Where ``forcemap convert`` / ``record`` may write: ``--overwrite`` replaces datasets, nothing else."""
+"""Where ``forcemap convert`` / ``record`` may write: ``--overwrite`` replaces datasets, nothing else;
+and ``edit_dir``, which ``forcemap segment`` edits a dataset through: all or nothing."""
 
 from pathlib import Path
 
 import pytest
 
-from lerobot_forcemap.data.staging import check_output, partial_dir, replace_dir
+from lerobot_forcemap.data.staging import check_output, edit_dir, partial_dir, replace_dir
 
 
 def test_check_output_refuses_what_is_not_a_dataset(tmp_path):
@@ -62,3 +63,50 @@ def test_relative_paths_with_dots_stage_beside_the_real_folder(tmp_path, monkeyp
     replace_dir(out, work)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a"]
     assert [p.name for p in (tmp_path / "a").iterdir()] == ["new.txt"]
+
+
+def _folder(tmp_path: Path) -> Path:
+    root = tmp_path / "ds"
+    (root / "meta").mkdir(parents=True)
+    (root / "meta" / "info.json").write_text("old")
+    (root / "videos" / "cam").mkdir(parents=True)
+    (root / "videos" / "cam" / "file-000.mp4").write_bytes(b"frames")
+    return root
+
+
+def test_edit_dir_swaps_in_the_edited_copy(tmp_path):
+    root = _folder(tmp_path)
+    with edit_dir(root) as work:
+        assert work == tmp_path / ".ds.partial"
+        assert (work / "meta" / "info.json").read_text() == "old"
+        # videos are hard links, not copies: never to be written through
+        assert (work / "videos" / "cam" / "file-000.mp4").stat().st_ino == (
+            root / "videos" / "cam" / "file-000.mp4"
+        ).stat().st_ino
+        assert (work / "meta" / "info.json").stat().st_ino != (root / "meta" / "info.json").stat().st_ino
+        (work / "meta" / "info.json").write_text("new")
+        assert (root / "meta" / "info.json").read_text() == "old"
+    assert (root / "meta" / "info.json").read_text() == "new"
+    assert (root / "videos" / "cam" / "file-000.mp4").read_bytes() == b"frames"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ds"]
+
+
+def test_edit_dir_leaves_the_folder_as_it_was_on_any_error(tmp_path):
+    root = _folder(tmp_path)
+    for error in (OSError("disk full"), KeyboardInterrupt()):
+        with pytest.raises(type(error)), edit_dir(root) as work:
+            (work / "meta" / "info.json").write_text("half")
+            raise error
+        assert (root / "meta" / "info.json").read_text() == "old"
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["ds"]
+
+
+def test_edit_dir_edits_a_linked_folder_in_place_of_its_target(tmp_path, monkeypatch):
+    root = _folder(tmp_path)
+    (tmp_path / "link").symlink_to(root)
+    with edit_dir(tmp_path / "link") as work:
+        (work / "meta" / "info.json").write_text("new")
+    assert (tmp_path / "link").is_symlink() and (root / "meta" / "info.json").read_text() == "new"
+    monkeypatch.chdir(root / "meta")
+    with pytest.raises(ValueError, match=r"dataset .* is the current folder or holds it"), edit_dir(root):
+        pass

@@ -168,7 +168,8 @@ def test_align_bad_gripper_range_names_sample(synthetic):
 
 
 def test_press_force_points_up_during_the_press(shared_data):
-    """SPEC §3 sign check on press_2023-07-27_160905.h5: tared, rotated to base, it reads + tens of N up."""
+    """The force sign (reaction on the robot) on press_2023-07-27_160905.h5: tared and rotated to the base,
+    the press reads tens of N up."""
     rec = read_recording(shared_data / "ur5e" / "press_2023-07-27_160905.h5")
     a = align_recording(rec)
     # Tool-frame bias: the quiet rest windows at start and end agree (the bias rides with the sensor).
@@ -262,5 +263,5 @@ def test_streams_cut_to_their_overlap_are_reported(synthetic):
 def test_gripper_full_scale_must_be_positive(synthetic):
     _, rec = synthetic
     for value in (float("nan"), 0.0, -1.0):
-        with pytest.raises(ValueError, match="gripper_full_scale must be a positive number"):
+        with pytest.raises(ValueError, match="gripper_full_scale: must be a finite number > 0"):
             align_recording(rec, gripper_full_scale=value)

@@ -19,7 +19,7 @@ def _policy(**kw):
     from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
 
     policy = ForceMapPolicy(ForceMapConfig(device="cpu", episodes=[0], **{**SETTINGS, **kw}))
-    policy.fit_dataset("local/grasp_flip", str(DATASET))
+    policy.fit_dataset(DATASET)
     return policy
 
 
