@@ -14,10 +14,10 @@ from __future__ import annotations
 import argparse
 import warnings
 
-import benchmarks.bench_setup  # noqa: F401  (one BLAS thread, line-buffered output; before NumPy)
 import gymnasium as gym
 import numpy as np
 
+import benchmarks.bench_setup  # noqa: F401  (one BLAS thread, line-buffered output; before NumPy)
 import lerobot_forcemap.envs  # noqa: F401  (registers the gym ids)
 
 TARGETS = ((0.42, 0.0, 0.25), (0.55, 0.0, 0.10), (0.6, 0.25, 0.1), (0.7, -0.3, 0.05), (0.75, 0.0, 0.05))
