@@ -35,7 +35,6 @@ from .data import (
     default_data_dir,
     load_demos,
 )
-from .figures import figure_demo, figure_f1
 from .report import REPO, render_markdown
 from .scoring import score_run
 
@@ -109,6 +108,8 @@ def _figure_demo(given: str | None, h5: Path, keys: list, limit: int | None) -> 
 
 def main(argv: list[str] | None = None) -> int:
     args, h5, keys = parse_args(argv)
+    from .figures import figure_demo, figure_f1  # matplotlib: only once the flags are good
+
     started = time.perf_counter()
     args.out.mkdir(parents=True, exist_ok=True)
     tol = float(args.tolerance)
