@@ -36,12 +36,9 @@ test-fast: venv
 demo: venv
 	HF_HUB_OFFLINE=1 $(PY) -m lerobot_forcemap.cli.demo --out outputs/demo
 
+BENCHMARKS := bench_elmap bench_clarabel_polish bench_segmentation bench_envs bench_policy_fit
 bench: venv
-	$(PY) benchmarks/bench_elmap.py
-	$(PY) benchmarks/bench_clarabel_polish.py
-	$(PY) benchmarks/bench_segmentation.py
-	$(PY) benchmarks/bench_envs.py
-	$(PY) benchmarks/bench_policy_fit.py
+	for b in $(BENCHMARKS); do $(PY) -m benchmarks.$$b || exit 1; done
 
 # Paper experiments (8-16 min on 2 cores from an empty cache; cached re-runs only re-aggregate).
 experiments: venv
@@ -58,7 +55,7 @@ datasets: venv
 		$(VENV)/bin/forcemap record --task $$t --episodes 10 --seed 0 --out datasets/$$t --overwrite || exit 1; \
 	done
 
-# The GBTI segmentation experiment (needs ../shared/data or FORCEMAP_SHARED_DATA).
+# The GBTI segmentation experiment (needs the real recordings: found next to the checkout, or FORCEMAP_SHARED_DATA).
 segmentation-experiment: venv
 	$(PY) -m experiments.gbti_segmentation
 

@@ -1,6 +1,6 @@
 """Benchmark: what the active-set polish of the Clarabel M-step costs and what it corrects.
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_clarabel_polish.py [--repeats 7] [--episodes 3]
+    .venv/bin/python -m benchmarks.bench_clarabel_polish [--repeats 7] [--episodes 3]
 
 The inequality path (``force_limit`` half-spaces, a floor half-space) on the shipped press, erase and
 peg-in-hole demonstrations (wrist position and force), plus the audit's demo at rest under a binding
@@ -16,11 +16,11 @@ import argparse
 import time
 from pathlib import Path
 
-import bench_setup  # noqa: F401  (one BLAS thread, line-buffered output; before NumPy)
 import numpy as np
 import pandas as pd
 
 import lerobot_forcemap.elmap.fit as fit_module
+from lerobot_forcemap._validation import check_int, usage_errors
 from lerobot_forcemap.elmap import Constraints, fit_force_elastic_map
 from lerobot_forcemap.elmap.mstep import clarabel_m_step
 
@@ -77,8 +77,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=7, help="replays of each fit's M-steps (median taken)")
     ap.add_argument("--episodes", type=int, default=3, help="demonstrations per task")
     args = ap.parse_args(argv)
-    if args.repeats < 1 or args.episodes < 1:
-        ap.error("--repeats and --episodes must be >= 1")
+    with usage_errors(ap):
+        check_int("--repeats", args.repeats, low=1)
+        check_int("--episodes", args.episodes, low=1)
     print("| problem | M-steps | raw ms/step | polished ms/step | ratio | max node change |")
     print("|---|---:|---:|---:|---:|---:|")
     ratios = []

@@ -9,7 +9,7 @@ points and weights so both solve the same problems. Ours is timed twice: as inst
 compiled E-step loops when they were built) and on the NumPy reference path; the two fits are checked
 to be identical.
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_elmap.py [--repeats 7] [--baseline-repeats 3] [--quick]
+    .venv/bin/python -m benchmarks.bench_elmap [--repeats 7] [--baseline-repeats 3] [--quick]
 
 Before any timing, one untimed fit of ours and one of the baseline (imports, first-call set-up).
 """
@@ -17,16 +17,17 @@ Before any timing, one untimed fit of ours and one of the baseline (imports, fir
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import platform
 import time
 from pathlib import Path
 
-import bench_setup  # noqa: F401  (one BLAS thread, line-buffered output; before NumPy)
 import numpy as np
 from tqdm import tqdm
 
+from lerobot_forcemap._validation import check_int, usage_errors
 from lerobot_forcemap.elmap import (
     DEFAULT_DELTA,
     DEFAULT_F_CONTACT,
@@ -145,72 +146,64 @@ def median_time(fn, repeats: int) -> tuple[float, object]:
     return float(np.median(times)), out
 
 
-def warm_up() -> None:
-    """One untimed fit of ours (both paths) and one untimed baseline fit on a small problem, so that the
-    first timed call of each pays no import (``import cvxpy`` alone takes ~1 s) and no first-call set-up."""
-    x, f = wipe_problem(500)
-    fit_force_elastic_map(x, f, n_nodes=20)
+@contextlib.contextmanager
+def numpy_path():
+    """Fits inside run on the NumPy reference path (``LEROBOT_FORCEMAP_NUMPY_EM=1``), not the compiled loops."""
     as_installed = os.environ.get(NUMPY_ENV)
     os.environ[NUMPY_ENV] = "1"
     try:
-        fit_force_elastic_map(x, f, n_nodes=20)
+        yield
     finally:
         if as_installed is None:
             del os.environ[NUMPY_ENV]
         else:
             os.environ[NUMPY_ENV] = as_installed
+
+
+def warm_up() -> None:
+    """One untimed fit of ours (both paths) and one untimed baseline fit on a small problem, so that the
+    first timed call of each pays no import (``import cvxpy`` alone takes ~1 s) and no first-call set-up."""
+    x, f = wipe_problem(500)
+    fit_force_elastic_map(x, f, n_nodes=20)
+    with numpy_path():
+        fit_force_elastic_map(x, f, n_nodes=20)
     cvxpy_fit(x, f, 20, max_iter=2)
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeats", type=int, default=7, help="timed fits of ours per problem (>= 1)")
-    ap.add_argument(
-        "--baseline-repeats", type=int, default=3, help="timed cvxpy + OSQP fits per problem (>= 1)"
+#: (path, M, N, forces) of every timed problem
+GRID = [
+    *(("wipe", m, n, force) for m in (1000, 2730, 10000) for n in (50, 100, 200) for force in (False, True)),
+    *(("fold", 2730, 100, force) for force in (False, True)),
+]
+
+
+def bench_row(path: str, m: int, n: int, force: bool, args: argparse.Namespace, compiled: bool) -> dict:
+    """One problem: ours as installed and on the NumPy path (checked identical), and the baseline
+    unless ``--quick`` leaves it out."""
+    x, f = PROBLEMS[path](m)
+    forces = f if force else None
+    ours_s, fit = median_time(lambda: fit_force_elastic_map(x, forces, n_nodes=n), args.repeats)
+    with numpy_path():
+        numpy_s, numpy_fit = median_time(lambda: fit_force_elastic_map(x, forces, n_nodes=n), args.repeats)
+    assert np.array_equal(numpy_fit.nodes, fit.nodes), "compiled and NumPy paths disagree"
+    row = dict(
+        path=path,
+        M=m,
+        N=n,
+        forces=force,
+        ours_ms=1e3 * ours_s,
+        numpy_ms=1e3 * numpy_s,
+        compiled=compiled,
+        ours_iter=fit.n_iter,
+        ours_stop=fit.stop_reason,
     )
-    ap.add_argument("--quick", action="store_true", help="baseline only for M = 2730, N = 100")
-    ap.add_argument("--json", default=None, help="also write the rows as JSON here")
-    args = ap.parse_args(argv)
-    for flag, value in (("--repeats", args.repeats), ("--baseline-repeats", args.baseline_repeats)):
-        if value < 1:
-            ap.error(f"{flag} must be >= 1, got {value}")
+    if not args.quick or (path == "wipe" and m == 2730 and n == 100):
+        base_s, (_, base_iter) = median_time(lambda: cvxpy_fit(x, forces, n), args.baseline_repeats)
+        row.update(cvxpy_ms=1e3 * base_s, cvxpy_iter=base_iter, speedup=base_s / ours_s)
+    return row
 
-    warm_up()
 
-    rows = []
-    grid = [
-        ("wipe", m, n, force) for m in (1000, 2730, 10000) for n in (50, 100, 200) for force in (False, True)
-    ]
-    grid += [("fold", 2730, 100, force) for force in (False, True)]
-    compiled = load_em_kernel() is not None
-    for path, m, n, force in tqdm(grid, desc="bench_elmap"):
-        x, f = PROBLEMS[path](m)
-        forces = f if force else None
-        ours_s, fit = median_time(lambda: fit_force_elastic_map(x, forces, n_nodes=n), args.repeats)  # noqa: B023
-        as_installed = os.environ.get(NUMPY_ENV)
-        os.environ[NUMPY_ENV] = "1"  # the NumPy reference path, same problem
-        numpy_s, numpy_fit = median_time(lambda: fit_force_elastic_map(x, forces, n_nodes=n), args.repeats)  # noqa: B023
-        if as_installed is None:
-            del os.environ[NUMPY_ENV]
-        else:
-            os.environ[NUMPY_ENV] = as_installed
-        assert np.array_equal(numpy_fit.nodes, fit.nodes), "compiled and NumPy paths disagree"
-        row = dict(
-            path=path,
-            M=m,
-            N=n,
-            forces=force,
-            ours_ms=1e3 * ours_s,
-            numpy_ms=1e3 * numpy_s,
-            compiled=compiled,
-            ours_iter=fit.n_iter,
-            ours_stop=fit.stop_reason,
-        )
-        if not args.quick or (path == "wipe" and m == 2730 and n == 100):
-            base_s, (_, base_iter) = median_time(lambda: cvxpy_fit(x, forces, n), args.baseline_repeats)  # noqa: B023
-            row.update(cvxpy_ms=1e3 * base_s, cvxpy_iter=base_iter, speedup=base_s / ours_s)
-        rows.append(row)
-
+def print_table(rows: list[dict], args: argparse.Namespace, compiled: bool) -> None:
     print(
         f"\nmachine: {platform.machine()}, {os.cpu_count()} cores, OPENBLAS_NUM_THREADS={os.environ['OPENBLAS_NUM_THREADS']}"
     )
@@ -233,6 +226,24 @@ def main(argv: list[str] | None = None) -> int:
             f"| {r['path']} | {r['M']} | {r['N']} | {'yes' if r['forces'] else 'no'} | {r['ours_ms']:.2f} | "
             f"{r['numpy_ms']:.2f} | {r['ours_iter']} ({r['ours_stop']}) | {base} |"
         )
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=7, help="timed fits of ours per problem (>= 1)")
+    ap.add_argument(
+        "--baseline-repeats", type=int, default=3, help="timed cvxpy + OSQP fits per problem (>= 1)"
+    )
+    ap.add_argument("--quick", action="store_true", help="baseline only for M = 2730, N = 100")
+    ap.add_argument("--json", default=None, help="also write the rows as JSON here")
+    args = ap.parse_args(argv)
+    with usage_errors(ap):
+        check_int("--repeats", args.repeats, low=1)
+        check_int("--baseline-repeats", args.baseline_repeats, low=1)
+    warm_up()
+    compiled = load_em_kernel() is not None
+    rows = [bench_row(*problem, args, compiled) for problem in tqdm(GRID, desc="bench_elmap")]
+    print_table(rows, args, compiled)
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=2))
     return 0

@@ -1,6 +1,6 @@
 """Speed of the MuJoCo force tasks: real-time factor, model build time, rendering cost.
 
-    OPENBLAS_NUM_THREADS=1 MUJOCO_GL=egl .venv/bin/python benchmarks/bench_envs.py [--episodes 5] [--json out.json]
+    .venv/bin/python -m benchmarks.bench_envs [--episodes 5] [--cores 1] [--no-render] [--json out.json]
 
 Per task, in one process pinned to one CPU core (``--cores``):
 - build: median time to construct the env (MjSpec scene + compile + index), ms;
@@ -23,12 +23,12 @@ import statistics
 import sys
 import time
 
-import bench_setup  # noqa: F401  (one BLAS thread, MUJOCO_GL, line-buffered output; before NumPy)
 import mujoco
 import numpy as np
 from tqdm import tqdm
 
 import lerobot_forcemap.envs as E
+from lerobot_forcemap._validation import check_int, usage_errors
 from lerobot_forcemap.envs.demonstrators import make_demonstrator
 from lerobot_forcemap.envs.registration import TASKS
 
@@ -111,13 +111,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-render", action="store_true")
     parser.add_argument("--json", default=None, help="also write the numbers to this JSON file")
     args = parser.parse_args(argv)
-    if args.episodes < 1:
-        parser.error(f"--episodes must be >= 1, got {args.episodes}")
     available = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    if not 0 <= args.cores <= available:
-        parser.error(
-            f"--cores must be 0 (no pinning) or 1..{available} (the cores this process may use), got {args.cores}"
-        )
+    with usage_errors(parser):
+        check_int("--episodes", args.episodes, low=1)
+        check_int("--cores", args.cores, low=0, high=available)  # 0: no pinning
     pinned = 0
     if args.cores and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, set(sorted(os.sched_getaffinity(0))[: args.cores]))

@@ -1,6 +1,6 @@
 """Benchmark `segment_streams` on the real 4099-sample three-button UR5e demo with 5 streams.
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_segmentation.py [--runs 50] [--loop-runs 20] [--plot PNG]
+    .venv/bin/python -m benchmarks.bench_segmentation [--runs 50] [--loop-runs 20] [--plot PNG] [--data H5]
 
 Streams (interpolated onto the joint time base where a group's times differ): joints (6, unwrapped),
 Cartesian position (3), wrist force (3), wrist torque (3), gripper (1); thresholds as the authors'
@@ -19,10 +19,10 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-import bench_setup  # noqa: F401  (one BLAS thread, line-buffered output; before NumPy)
 import h5py
 import numpy as np
 
+from lerobot_forcemap._validation import check_int, usage_errors
 from lerobot_forcemap.segmentation import (
     SegmentationConfig,
     Stream,
@@ -41,9 +41,14 @@ THRESHOLDS = {"joints": 0.20, "cartesian": 0.25, "wrist_force": 0.15, "wrist_tor
 WEIGHTS = {"joints": 0.10, "cartesian": 0.10, "wrist_force": 0.35, "wrist_torque": 0.35, "gripper": 0.10}
 
 
-def default_demo_path() -> Path:
-    demo = "ur5e/three_button_press.h5"
-    return (find_shared_data(demo) or Path(__file__).resolve().parents[2] / "shared" / "data") / demo
+#: the recording, relative to the real-data folder (``lerobot_forcemap.shared_data``)
+DEMO = "ur5e/three_button_press.h5"
+
+
+def default_demo_path() -> Path | None:
+    """The recording in the real-data folder, None when that folder is not found."""
+    root = find_shared_data(DEMO)
+    return root / DEMO if root is not None else None
 
 
 def seconds(rows: np.ndarray) -> np.ndarray:
@@ -163,9 +168,18 @@ def plot(streams: list[Stream], seg, path: Path) -> None:
     fig.savefig(path, dpi=90)
 
 
-def main(argv: list[str] | None = None) -> int:
+#: the configurations timed against the loop reference
+CONFIGS = {
+    "default: geometric, peaks, savgol": SegmentationConfig(),
+    "product, sample (paper), savgol": SegmentationConfig(mode="product", changepoints="sample", seed=0),
+    "linear, peaks, savgol": SegmentationConfig(mode="linear"),
+    "geometric, peaks, difference (authors' derivative)": SegmentationConfig(derivative="difference"),
+}
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--data", type=Path, default=default_demo_path(), help="three_button_press.h5")
+    parser.add_argument("--data", type=Path, default=None, help=f"{DEMO} (default: in the real-data folder)")
     parser.add_argument(
         "--runs", type=int, default=50, help="timed runs of segment_streams and of each stage (>= 1)"
     )
@@ -176,34 +190,29 @@ def main(argv: list[str] | None = None) -> int:
         "--plot", type=Path, default=None, help="write a PNG of the default segmentation here"
     )
     args = parser.parse_args(argv)
-    for flag, value in (("--runs", args.runs), ("--loop-runs", args.loop_runs)):
-        if value < 1:
-            parser.error(f"{flag} must be >= 1, got {value}")
-    if not args.data.is_file():
-        parser.error(f"--data {args.data}: not found (set FORCEMAP_SHARED_DATA or pass --data)")
-    try:
-        streams = load_streams(args.data)
-    except ValueError as err:
-        parser.error(f"--data {err}")
-    n = streams[0].n_frames
-    print(
-        f"demo: {args.data.name}, {n} samples, {len(streams)} streams "
-        f"({', '.join(f'{s.name}:{s.values.shape[1]}' for s in streams)}); "
-        f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}; "
-        f"median of {args.runs} runs (vectorised) / {args.loop_runs} runs (loop)\n"
-    )
-    configs = {
-        "default: geometric, peaks, savgol": SegmentationConfig(),
-        "product, sample (paper), savgol": SegmentationConfig(mode="product", changepoints="sample", seed=0),
-        "linear, peaks, savgol": SegmentationConfig(mode="linear"),
-        "geometric, peaks, difference (authors' derivative)": SegmentationConfig(derivative="difference"),
-    }
+    with usage_errors(parser):
+        check_int("--runs", args.runs, low=1)
+        check_int("--loop-runs", args.loop_runs, low=1)
+        args.data = args.data or default_demo_path()
+        if args.data is None or not args.data.is_file():
+            raise ValueError(
+                f"--data {args.data or DEMO}: not found (set FORCEMAP_SHARED_DATA or pass --data)"
+            )
+        try:
+            args.streams = load_streams(args.data)
+        except ValueError as err:
+            raise ValueError(f"--data {err}") from None
+    return args
+
+
+def time_configurations(streams: list[Stream], args: argparse.Namespace) -> float:
+    """The table of :data:`CONFIGS` (vectorised against the loop, same result); returns the default's ms."""
     print(
         "| configuration | segment_streams median ms (IQR) | per-sample loop median ms | loop / vectorised | same result | segments |"
     )
     print("|---|---|---|---|---|---|")
     default_ms = None
-    for label, config in configs.items():
+    for label, config in CONFIGS.items():
         fast = segment_streams(streams, config)
         ref = loop_segment_streams(streams, config)
         same = np.array_equal(fast.changepoints, ref["changepoints"]) and all(
@@ -215,12 +224,11 @@ def main(argv: list[str] | None = None) -> int:
         print(
             f"| {label} | {ms:.2f} ({q25:.2f}–{q75:.2f}) | {loop_ms:.0f} | {loop_ms / ms:.0f}x | {'yes' if same else 'NO'} | {fast.n_segments} |"
         )
+    return default_ms
 
-    print("\nStages of the default configuration (median ms):\n")
-    print("| stage | ms |")
-    print("|---|---|")
-    for stage, ms in stage_breakdown(streams, SegmentationConfig(), args.runs):
-        print(f"| {stage} | {ms:.2f} |")
+
+def print_weights(streams: list[Stream], runs: int) -> None:
+    """Hand weights against ``auto_weights``, and the changepoints of both."""
     hand = segment_streams(streams, SegmentationConfig())
     auto = auto_weights(streams, SegmentationConfig())
     auto_seg = segment_streams(reweighted(streams, auto), SegmentationConfig())
@@ -233,8 +241,27 @@ def main(argv: list[str] | None = None) -> int:
         print(f"| {s.name} | {s.weight:.2f} | {auto[s.name]:.3f} |")
     print(f"\nchangepoints, hand weights: {hand.changepoints.tolist()}")
     print(f"changepoints, auto weights: {auto_seg.changepoints.tolist()}")
-    auto_ms = median_ms(lambda: auto_weights(streams, SegmentationConfig()), args.runs)[0]
+    auto_ms = median_ms(lambda: auto_weights(streams, SegmentationConfig()), runs)[0]
     print(f"auto_weights: {auto_ms:.2f} ms median")
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    streams = args.streams
+    n = streams[0].n_frames
+    print(
+        f"demo: {args.data.name}, {n} samples, {len(streams)} streams "
+        f"({', '.join(f'{s.name}:{s.values.shape[1]}' for s in streams)}); "
+        f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}; "
+        f"median of {args.runs} runs (vectorised) / {args.loop_runs} runs (loop)\n"
+    )
+    default_ms = time_configurations(streams, args)
+    print("\nStages of the default configuration (median ms):\n")
+    print("| stage | ms |")
+    print("|---|---|")
+    for stage, ms in stage_breakdown(streams, SegmentationConfig(), args.runs):
+        print(f"| {stage} | {ms:.2f} |")
+    print_weights(streams, args.runs)
     verdict = "PASS" if default_ms < TARGET_MS else "FAIL"
     print(
         f"\ntarget: default segment_streams under {TARGET_MS:.0f} ms median -> {default_ms:.2f} ms, {verdict}"

@@ -1,6 +1,6 @@
 """Free-space tracking error of the two arms: the TCP's distance to a held target (``info["tracking_error"]``).
 
-    MUJOCO_GL=egl .venv/bin/python -m experiments.env_tracking_error [--steps 200]
+    .venv/bin/python -m experiments.env_tracking_error [--steps 200]
 
 For each target (tool pointing down, as at reset) the env is reset without randomisation and the target
 is commanded for --steps control steps (20 Hz: 200 = 10 s, long past the impedance's settling); the
@@ -14,11 +14,11 @@ from __future__ import annotations
 import argparse
 import warnings
 
-import benchmarks.bench_setup  # noqa: F401  (one BLAS thread, line-buffered output; before NumPy)
 import gymnasium as gym
 import numpy as np
 
 import lerobot_forcemap.envs  # noqa: F401  (registers the gym ids)
+from lerobot_forcemap._validation import check_int, usage_errors
 
 TARGETS = ((0.42, 0.0, 0.25), (0.55, 0.0, 0.10), (0.6, 0.25, 0.1), (0.7, -0.3, 0.05), (0.75, 0.0, 0.05))
 ARMS = {"UR5e": "lerobot_forcemap/Press-v0", "Gen3": "lerobot_forcemap/GraspPush-v0"}
@@ -44,8 +44,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=200, help="control steps per target (20 Hz)")
     args = ap.parse_args(argv)
-    if args.steps < 1:
-        ap.error("--steps must be >= 1")
+    with usage_errors(ap):
+        check_int("--steps", args.steps, low=1)
     warnings.simplefilter("ignore", UserWarning)  # gymnasium's passive env-checker notes
     rows = {arm: tracking_errors(env_id, args.steps) for arm, env_id in ARMS.items()}
     print("| target (m) | " + " | ".join(f"{arm} error (mm)" for arm in rows) + " |")

@@ -1,6 +1,6 @@
 """Grasping the unseen objects: the scripted demonstrator, and a simple re-anchored replay of the shipped demos.
 
-    OPENBLAS_NUM_THREADS=1 MUJOCO_GL=egl .venv/bin/python -m experiments.grasp_unseen_objects [--seeds 20] [--json out.json]
+    .venv/bin/python -m experiments.grasp_unseen_objects [--seeds 20] [--json out.json]
 
 Per task (``grasp_push``, ``grasp_flip``) and object (the demonstration object, ``apple``, ``banana``):
 
@@ -15,27 +15,26 @@ Per task (``grasp_push``, ``grasp_flip``) and object (the demonstration object, 
   the episode's time limit.
 
 Prints a markdown table: success rate, protective stops, per-finger max force (mean over episodes) and
-max contact force. Numbers depend on the MuJoCo version (see `../shared/notes/mujoco.md`).
+max contact force. Numbers depend on the MuJoCo version (MuJoCo is bitwise deterministic within one
+version only).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 from pathlib import Path
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+import numpy as np
+from tqdm import tqdm
 
-import numpy as np  # noqa: E402
-from tqdm import tqdm  # noqa: E402
-
-import lerobot_forcemap.envs as E  # noqa: E402
-from lerobot_forcemap import layout  # noqa: E402
-from lerobot_forcemap.data.reader import read_columns, read_meta  # noqa: E402
-from lerobot_forcemap.envs.demonstrators import make_demonstrator, run_demonstration  # noqa: E402
-from lerobot_forcemap.envs.record import EPISODES_FILE  # noqa: E402
+import lerobot_forcemap.envs as E
+from lerobot_forcemap import layout
+from lerobot_forcemap._validation import check_int, usage_errors
+from lerobot_forcemap.data.reader import read_columns, read_meta
+from lerobot_forcemap.envs.demonstrators import make_demonstrator, run_demonstration
+from lerobot_forcemap.evaluation.records import FINGER_KEYS, FORCE_KEYS, to_json
+from lerobot_forcemap.evaluation.stats import failure_counts, summarize
 
 REPO = Path(__file__).resolve().parents[1]
 TASKS = ("grasp_push", "grasp_flip")
@@ -48,7 +47,7 @@ def load_demos(task: str) -> tuple[list[dict[str, np.ndarray]], list[str]]:
     keys = (layout.ACTION, layout.OBS_ENV_STATE, layout.DEMO_PHASE)
     cols = read_columns(meta, list(range(meta.total_episodes)), [*keys, "episode_index"])
     episode = cols.pop("episode_index")
-    phases = json.loads((root / "meta" / EPISODES_FILE).read_text())["phases"]
+    phases = json.loads((root / "meta" / layout.EPISODES_FILE).read_text())["phases"]
     demos = [{k: v[episode == e] for k, v in cols.items()} for e in np.unique(episode)]
     return demos, phases
 
@@ -76,13 +75,24 @@ def replay(env, demo: dict[str, np.ndarray], phases: list[str], seed: int) -> di
 
 
 def summarise(infos: list[dict]) -> dict:
+    """n, success rate, protective stops, mean per-finger and contact max force, the failure reasons."""
+    records = [
+        {
+            "success": bool(i["is_success"]),
+            "protective_stop": bool(i["protective_stop"]),
+            "termination_reason": i["termination_reason"],
+            **{k: to_json(i[k]) for k in (*FORCE_KEYS, *FINGER_KEYS) if k in i},
+        }
+        for i in infos
+    ]
+    s = summarize(records, ("max_contact_force", "max_finger_force"), clipped=False)
     return {
-        "n": len(infos),
-        "success": float(np.mean([i["is_success"] for i in infos])),
-        "protective_stops": int(sum(i["protective_stop"] for i in infos)),
-        "max_finger_force": np.mean([i["max_finger_force"] for i in infos], axis=0).tolist(),
-        "max_contact_force": float(np.mean([i["max_contact_force"] for i in infos])),
-        "failures": sorted({i["termination_reason"] for i in infos if not i["is_success"]}),
+        "n": s["n"],
+        "success": s["success_rate"],
+        "protective_stops": s["protective_stops"],
+        "max_finger_force": s["max_finger_force"]["mean"],
+        "max_contact_force": s["max_contact_force"]["mean"],
+        "failures": sorted(failure_counts(records)),
     }
 
 
@@ -93,8 +103,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--json", default=None, help="also write the numbers to this JSON file")
     args = parser.parse_args(argv)
-    if args.seeds < 1:
-        parser.error(f"--seeds must be >= 1, got {args.seeds}")
+    with usage_errors(parser):
+        check_int("--seeds", args.seeds, low=1)
     rows = []
     for task in TASKS:
         demos, phases = load_demos(task)

@@ -1,6 +1,6 @@
 """Which of the scripted demonstrator's phase switches the forcemap policy's segmentation finds.
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python -m experiments.segmentation_vs_phases [--tasks press erase] [--set KEY=VALUE ...]
+    .venv/bin/python -m experiments.segmentation_vs_phases [--tasks press erase] [--set KEY=VALUE ...]
 
 For each task's shipped dataset (``datasets/<task>``, 10 demonstrations recorded with ``demo_phase``), the
 policy's own segmentation of every demonstration (``segments="auto"``, as a one-shot fit runs it; ``--set``
@@ -13,12 +13,11 @@ demonstrations it was found, and the pooled precision / recall / F1 that the abl
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("HF_HUB_OFFLINE", "1")
+from lerobot_forcemap._validation import usage_errors
+from lerobot_forcemap.data.schema import require_dataset_root
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -27,7 +26,7 @@ def phase_hits(dataset: Path, overrides: list[str]) -> tuple[list[tuple[str, str
     """(switches as (from, to) phase names, found-in counts, demonstrations, pooled score) for one dataset."""
     import numpy as np
 
-    from experiments.paper.jobs import demo_phase_switches, segmentation_score
+    from experiments.paper.demos import demo_phase_switches, segmentation_score
     from lerobot_forcemap.cli.fit import make_config
     from lerobot_forcemap.envs.demonstrators import DEMONSTRATORS
     from lerobot_forcemap.skill.fit import segment_episode, segmentation_config
@@ -74,14 +73,12 @@ def main(argv: list[str] | None = None) -> int:
     from lerobot_forcemap.lerobot_logs import quiet_torchcodec_warning
 
     quiet_torchcodec_warning()
+    with usage_errors(parser):
+        for task in args.tasks:
+            require_dataset_root(args.datasets / task, "--datasets")
     for task in args.tasks:
-        if not (args.datasets / task / "meta" / "info.json").is_file():
-            parser.error(f"--datasets {args.datasets / task}: not a LeRobot dataset (no meta/info.json)")
-    for task in args.tasks:
-        try:
+        with usage_errors(parser):
             names, found, n, score = phase_hits(args.datasets / task, args.overrides)
-        except ValueError as err:
-            parser.error(str(err))
         print(f"{task}: found in n of {n} demonstrations, per phase switch")
         for (a, b), k in zip(names, found, strict=True):
             print(f"  {a} -> {b}: {k}")

@@ -14,8 +14,9 @@ Pure Python and NumPy: no LeRobot, torch or MuJoCo.
 
 from __future__ import annotations
 
+import contextlib
 import math
-from collections.abc import Callable, Collection, Iterable, Mapping
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +39,7 @@ __all__ = [
     "check_path",
     "check_dict",
     "check_fields",
+    "usage_errors",
 ]
 
 #: what a ``repr`` of a bad value is cut to in messages (a whole array would bury the message)
@@ -303,3 +305,13 @@ def check_fields(owner: str, obj: object, rules: Mapping[str, Rule]) -> None:
     """Check the attributes of ``obj`` by a table ``{attribute: rule}``, each named ``<owner>.<attribute>``."""
     for attribute, rule in rules.items():
         rule(f"{owner}.{attribute}", getattr(obj, attribute))
+
+
+@contextlib.contextmanager
+def usage_errors(parser) -> Iterator[None]:
+    """Checks of parsed command-line flags: a ``ValueError`` inside becomes ``parser.error(message)``
+    (argparse's one usage line on stderr, exit status 2), as for a malformed flag."""
+    try:
+        yield
+    except ValueError as err:
+        parser.error(str(err))

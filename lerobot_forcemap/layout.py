@@ -125,3 +125,6 @@ CONTACT_FORCE_NAMES: Final = ("fx", "fy", "fz")
 # DEMO_PHASE: index of the scripted demonstrator's phase (ground-truth segments; the phase names are in
 # the dataset card and meta/forcemap_episodes.json).
 DEMO_PHASE: Final = "demo_phase"
+# EPISODES_FILE: per-episode env statistics of a recording (`meta/<EPISODES_FILE>`): the outcome and the
+# force figures at physics rate, comparable with evaluated episodes.
+EPISODES_FILE: Final = "forcemap_episodes.json"

@@ -1,9 +1,9 @@
-"""The benchmark scripts (``benchmarks/``) and experiments (``experiments/``) still run, at their smallest size.
+"""The benchmarks (``python -m benchmarks.<name>``) and experiments (``python -m experiments.<name>``)
+still run, at their smallest size.
 
 They are not timed here (timings are what the scripts report, never test assertions); this only keeps
-them from rotting when a library signature changes (a changed return value once broke
-``bench_policy_fit.py`` without any test noticing). The full runs are marked slow; the checks that a bad
-flag value gives one ``argparse`` error line (exit 2, no traceback) are quick and run by default.
+them from rotting when a library signature changes. The full runs are marked slow; the checks that a
+bad flag value gives one ``argparse`` error line (exit 2, no traceback) are quick and run by default.
 """
 
 from __future__ import annotations
@@ -50,10 +50,9 @@ RUNS = {
 
 
 def _command(script: str) -> list[str]:
-    """How a script is run: a benchmark by its path, an experiment as a module of ``experiments``."""
-    if script.startswith("bench_"):
-        return [sys.executable, str(REPO_ROOT / "benchmarks" / f"{script}.py")]
-    return [sys.executable, "-m", f"experiments.{script}"]
+    """How a script is run: a module of ``benchmarks`` or of ``experiments``."""
+    package = "benchmarks" if script.startswith("bench_") else "experiments"
+    return [sys.executable, "-m", f"{package}.{script}"]
 
 
 def _env() -> dict[str, str]:
@@ -81,20 +80,20 @@ def test_script_runs(script, tmp_path):
 
 #: script, arguments, a fragment of the one error line (all rejected right after parsing, before any work)
 BAD_FLAGS = [
-    ("bench_clarabel_polish", ["--episodes", "0"], "--repeats and --episodes must be >= 1"),
-    ("bench_elmap", ["--repeats", "0"], "--repeats must be >= 1"),
-    ("bench_elmap", ["--baseline-repeats", "0"], "--baseline-repeats must be >= 1"),
-    ("bench_envs", ["--episodes", "0"], "--episodes must be >= 1"),
-    ("env_tracking_error", ["--steps", "0"], "--steps must be >= 1"),
-    ("bench_envs", ["--cores", "-1"], "--cores must be 0"),
-    ("bench_policy_fit", ["--runs", "0"], "--runs must be >= 1"),
+    ("bench_clarabel_polish", ["--episodes", "0"], "--episodes: must be an integer >= 1, got 0"),
+    ("bench_elmap", ["--repeats", "0"], "--repeats: must be an integer >= 1, got 0"),
+    ("bench_elmap", ["--baseline-repeats", "0"], "--baseline-repeats: must be an integer >= 1, got 0"),
+    ("bench_envs", ["--episodes", "0"], "--episodes: must be an integer >= 1, got 0"),
+    ("env_tracking_error", ["--steps", "0"], "--steps: must be an integer >= 1, got 0"),
+    ("bench_envs", ["--cores", "-1"], "--cores: must be an integer >= 0 and <= "),
+    ("bench_policy_fit", ["--runs", "0"], "--runs: must be an integer >= 1, got 0"),
     ("bench_policy_fit", ["--dataset", "{tmp}"], "not a LeRobot dataset"),
-    ("bench_segmentation", ["--runs", "0"], "--runs must be >= 1"),
+    ("bench_segmentation", ["--runs", "0"], "--runs: must be an integer >= 1, got 0"),
     ("bench_segmentation", ["--data", "{tmp}/gbti_like.h5"], "not a UR5e recorder file"),
-    ("elmap_realdata", ["--n-nodes", "1"], "--n-nodes must be >= 2"),
-    ("gbti_segmentation", ["--limit", "0", "--out", "{tmp}"], "--limit must be >= 1"),
-    ("gbti_segmentation", ["--seeds", "0", "--out", "{tmp}"], "--seeds must be >= 1"),
-    ("grasp_unseen_objects", ["--seeds", "0"], "--seeds must be >= 1"),
+    ("elmap_realdata", ["--n-nodes", "1"], "--n-nodes: must be an integer >= 2, got 1"),
+    ("gbti_segmentation", ["--limit", "0", "--out", "{tmp}"], "--limit: must be an integer >= 1, got 0"),
+    ("gbti_segmentation", ["--seeds", "0", "--out", "{tmp}"], "--seeds: must be an integer >= 1, got 0"),
+    ("grasp_unseen_objects", ["--seeds", "0"], "--seeds: must be an integer >= 1, got 0"),
     ("segmentation_vs_phases", ["--datasets", "{tmp}"], "not a LeRobot dataset"),
 ]
 

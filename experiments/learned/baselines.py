@@ -27,6 +27,8 @@ from typing import Any
 import numpy as np
 
 from lerobot_forcemap import layout
+from lerobot_forcemap.evaluation.records import FORCE_KEYS, to_json
+from lerobot_forcemap.evaluation.stats import summarize
 
 __all__ = [
     "DEFAULT_EXTRAS",
@@ -125,12 +127,8 @@ def derive_env_state_dataset(
     """
     from lerobot.datasets.dataset_tools import modify_features
 
-    from lerobot_env_forcemap.env_state import (
-        ENV_STATE_EXTRA_KEYS,
-        extended_env_state_names,
-        parse_env_state_extras,
-    )
-    from lerobot_forcemap.data.reader import lerobot_dataset, read_columns, to_meta
+    from lerobot_env_forcemap.env_state import parse_env_state_extras
+    from lerobot_forcemap.data.reader import lerobot_dataset, to_meta
     from lerobot_forcemap.data.schema import require_dataset_root
 
     source, out = require_dataset_root(source, "source"), Path(out)
@@ -143,28 +141,7 @@ def derive_env_state_dataset(
         shutil.rmtree(out)
     repo_id = repo_id or f"local/{source.name}_env_{'_'.join(extras)}"
     ds = lerobot_dataset(source, repo_id=repo_id)
-    meta = to_meta(ds)
-    features = meta.features
-    keys = [layout.OBS_ENV_STATE, *(ENV_STATE_EXTRA_KEYS[e] for e in extras)]
-    for k in keys:
-        if k not in features:
-            raise ValueError(
-                f"derive_env_state_dataset: {source} has no feature {k!r} (extras {list(extras)})"
-            )
-    table = read_columns(meta, list(range(meta.total_episodes)), [*keys, "episode_index", "frame_index"])
-    rows = len(table["episode_index"])
-    cols = [np.asarray(table[k], dtype=np.float32).reshape(rows, -1) for k in keys]
-    for k, c in zip(keys, cols, strict=True):
-        bad = np.argwhere(~np.isfinite(c))
-        if len(bad):
-            row = int(bad[0, 0])
-            ep = int(np.asarray(table["episode_index"])[row])
-            fr = int(np.asarray(table["frame_index"])[row])
-            raise ValueError(f"derive_env_state_dataset: {k} is not finite at episode {ep}, frame {fr}")
-    values = np.concatenate(cols, axis=1)
-    extra_names = {e: features[ENV_STATE_EXTRA_KEYS[e]]["names"] for e in extras}
-    names = extended_env_state_names(features[layout.OBS_ENV_STATE]["names"], extras, extra_names)
-    spec = {"dtype": "float32", "shape": (values.shape[1],), "names": names}
+    values, spec, episode_index = _extended_env_state(source, to_meta(ds), extras)
     tmp = out.with_name(out.name + ".tmp_no_env_state")
     if tmp.exists():
         shutil.rmtree(tmp)
@@ -175,14 +152,47 @@ def derive_env_state_dataset(
         )
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    episode_index = np.asarray(table["episode_index"]).reshape(-1).astype(int)
     _write_feature_stats(out, layout.OBS_ENV_STATE, values, episode_index, spec)
     for extra_meta in sorted((source / "meta").glob("forcemap_*.json")):
         shutil.copy2(extra_meta, out / "meta" / extra_meta.name)
     (out / "meta" / ENV_STATE_META_FILE).write_text(
-        json.dumps({"source": str(source), "extras": list(extras), "names": names}, indent=1)
+        json.dumps({"source": str(source), "extras": list(extras), "names": spec["names"]}, indent=1)
     )
     return out
+
+
+def _extended_env_state(
+    source: Path, meta: Any, extras: Sequence[str]
+) -> tuple[np.ndarray, dict[str, Any], np.ndarray]:
+    """The new ``observation.environment_state`` column ``(rows, D + sum d_e)`` float32, its feature
+    spec and the rows' episode indices ``(rows,)``, in the dataset's row order; ValueError naming the
+    episode and frame of a value that is not finite."""
+    from lerobot_env_forcemap.env_state import ENV_STATE_EXTRA_KEYS, extended_env_state_names
+    from lerobot_forcemap.data.reader import read_columns
+
+    features = meta.features
+    keys = [layout.OBS_ENV_STATE, *(ENV_STATE_EXTRA_KEYS[e] for e in extras)]
+    for k in keys:
+        if k not in features:
+            raise ValueError(
+                f"derive_env_state_dataset: {source} has no feature {k!r} (extras {list(extras)})"
+            )
+    table = read_columns(meta, list(range(meta.total_episodes)), [*keys, "episode_index", "frame_index"])
+    episode_index = np.asarray(table["episode_index"]).reshape(-1).astype(int)
+    rows = len(episode_index)
+    cols = [np.asarray(table[k], dtype=np.float32).reshape(rows, -1) for k in keys]
+    for k, c in zip(keys, cols, strict=True):
+        bad = np.argwhere(~np.isfinite(c))
+        if len(bad):
+            row = int(bad[0, 0])
+            fr = int(np.asarray(table["frame_index"])[row])
+            raise ValueError(
+                f"derive_env_state_dataset: {k} is not finite at episode {episode_index[row]}, frame {fr}"
+            )
+    values = np.concatenate(cols, axis=1)
+    extra_names = {e: features[ENV_STATE_EXTRA_KEYS[e]]["names"] for e in extras}
+    names = extended_env_state_names(features[layout.OBS_ENV_STATE]["names"], extras, extra_names)
+    return values, {"dtype": "float32", "shape": (values.shape[1],), "names": names}, episode_index
 
 
 def _write_feature_stats(
@@ -350,14 +360,6 @@ def force_inputs_text(extras: Sequence[str] = DEFAULT_EXTRAS) -> str:
     )
 
 
-def _mean_std(values: np.ndarray) -> dict[str, Any]:
-    from experiments.paper.jobs import sample_stats
-
-    # sample std (ddof 1), as the experiments' tables report every other spread
-    stats = sample_stats(values)
-    return {"mean": stats["mean"], "std": stats["std"]}
-
-
 def result_document(
     task: str,
     method: str,
@@ -375,8 +377,6 @@ def result_document(
 
     Spreads are sample std over episodes (ddof 1). ``lerobot_eval``: ``read_lerobot_eval``'s record of
     the same checkpoint on the same seeds, when ``lerobot-eval`` was run."""
-    from lerobot_forcemap.evaluation.evaluate import to_json
-
     if not records:
         raise ValueError(f"result_document {task}/{method}: no episode records")
     if len(seeds) != len(records):
@@ -385,20 +385,16 @@ def result_document(
     if rec_seeds != [int(s) for s in seeds]:
         raise ValueError(f"result_document {task}/{method}: record seeds {rec_seeds} != seeds {list(seeds)}")
 
-    def col(key: str) -> np.ndarray:
-        return np.array([r[key] for r in records], dtype=float)
-
+    summary = summarize(records, FORCE_KEYS, clipped=False)
     doc = {
         "task": task,
         "method": method,
-        "n": len(records),
+        "n": summary["n"],
         "seeds": [int(s) for s in seeds],
-        "success_rate": float(np.mean([bool(r["success"]) for r in records])),
-        "protective_stops": int(sum(bool(r["protective_stop"]) for r in records)),
-        "max_contact_force": _mean_std(col("max_contact_force")),
-        "mean_contact_force": _mean_std(col("mean_contact_force")),
-        "max_contact_force_xyz": _mean_std(col("max_contact_force_xyz")),
-        "mean_contact_force_xyz": _mean_std(col("mean_contact_force_xyz")),
+        "success_rate": summary["success_rate"],
+        "protective_stops": summary["protective_stops"],
+        # mean and sample std (ddof 1) over episodes, as the experiments' tables report every spread
+        **{k: {"mean": summary[k]["mean"], "std": summary[k]["std"]} for k in FORCE_KEYS},
         "train_steps": int(train_steps),
         "train_wall_time_s": float(train_wall_time_s),
         "eval_wall_time_s": float(eval_wall_time_s),

@@ -1,4 +1,4 @@
-"""Learned baselines (issue 7): ACT and Diffusion trained with ``lerobot-train`` on the shipped
+"""Learned baselines: ACT and Diffusion trained with ``lerobot-train`` on the shipped
 datasets (all 10 demos, CPU, small configs) and evaluated on the forcemap experiments' seeds.
 
     python -m experiments.learned --tasks press erase peg_in_hole \
@@ -8,7 +8,7 @@ datasets (all 10 demos, CPU, small configs) and evaluated on the forcemap experi
 
 Per task: ``datasets/<task>`` -> derived dataset ``<work>/datasets/<task>`` whose
 ``observation.environment_state`` is ``[object state | ee_pose | force]`` (how force reaches ACT and
-Diffusion, see ``lerobot_forcemap/experiments/learned.py``). Per task x method: ``lerobot-train``
+Diffusion, see ``experiments/learned/baselines.py``). Per task x method: ``lerobot-train``
 (subprocess, checkpoints under ``<work>/<task>__<method>/``, not committed), then ``evaluate_policy``
 with the same env processor (``--env.env_state_extras=ee_pose,force`` in ``lerobot-eval`` terms) on
 episodes ``seed .. seed + episodes - 1`` (default 1000..1019; torch seeded per episode, so Diffusion's
@@ -29,17 +29,15 @@ and ``--batch-size`` take one number for every method or ``method=N`` pairs.
 Budgets (defaults): ACT 4000 steps x batch 8, Diffusion 1500 steps x batch 64, the same for every
 task. Measured on the shared 2-core machine (median of lerobot-train's logged updt_s + data_s):
 ACT 0.08 s/step (~5.5 min per task), Diffusion 0.48 s/step (~12 min per task; its data loading of
-16-frame action windows costs as much as the update); the whole 3 x 2 run took ~56 min including
-evaluation (20 episodes each, 7-67 s) before lerobot-eval was added; the latest, with both evaluations
-and partly sharing the cores with other jobs, 87 min. Diffusion's budget is the larger share because it converges
-more slowly (noise-prediction loss still falling at 700 steps: 0.15-0.17; at 1500: 0.05-0.06).
+16-frame action windows costs as much as the update); the whole 3 x 2 run with both evaluations takes
+1-1.5 h. Diffusion's budget is the larger share because it converges more slowly (noise-prediction
+loss still falling at 700 steps: 0.15-0.17; at 1500: 0.05-0.06).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import re
 import shutil
 import subprocess
@@ -48,12 +46,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("MUJOCO_GL", "egl")
-os.environ.setdefault("HF_HUB_OFFLINE", "1")
+import numpy as np
 
-import numpy as np  # noqa: E402
+from lerobot_forcemap._validation import check_int, usage_errors
 
 REPO = Path(__file__).resolve().parents[2]
 TASKS = ("press", "erase", "peg_in_hole")
@@ -80,8 +75,8 @@ def parse_steps(items: list[str], methods: list[str], flag: str = "--steps") -> 
     missing = [m for m in methods if m not in out]
     if missing:
         raise ValueError(f"{flag}: no value for {missing}")
-    if any(v < 1 for v in out.values()):
-        raise ValueError(f"{flag} must be >= 1, got {out}")
+    for name, value in out.items():
+        check_int(f"{flag} {name}", value, low=1)
     return out
 
 
@@ -139,12 +134,8 @@ def run_one(
     smoke: bool,
     extras: tuple[str, ...],
 ) -> dict[str, Any]:
-    from experiments.learned.baselines import (
-        force_inputs_text,
-        policy_config,
-        result_document,
-        train_command,
-    )
+    """Train one method on one task's derived dataset, evaluate it twice; returns its result document."""
+    from experiments.learned.baselines import force_inputs_text, policy_config, result_document, train_command
 
     cfg = policy_config(method, smoke=smoke)
     run_dir = work / f"{task}__{method}"
@@ -167,18 +158,7 @@ def run_one(
     train_cfg = json.loads((ckpt / "train_config.json").read_text())
     config = {
         "policy": {k: v for k, v in train_cfg["policy"].items() if k in cfg or k in _KEY_POLICY_FIELDS},
-        "training": {
-            "batch_size": batch_size,
-            "steps": steps,
-            "seed": train_cfg.get("seed"),
-            "optimizer": (train_cfg.get("optimizer") or {}).get("type"),
-            "scheduler": (train_cfg.get("scheduler") or {}).get("type"),
-            "device": "cpu",
-            "dataset": str(dataset_root),
-            "demos": "all 10",
-            "median_s_per_step": float(np.median(per_step)) if per_step else None,
-            "command": " ".join(argv[1:]),
-        },
+        "training": _training_block(train_cfg, argv, batch_size, steps, dataset_root, per_step),
         "eval": {"env_state_extras": list(extras), "episodes": episodes, "first_seed": seed},
     }
     if smoke:
@@ -195,6 +175,24 @@ def run_one(
         force_inputs=force_inputs_text(extras),
         lerobot_eval=lerobot_eval,
     )
+
+
+def _training_block(
+    train_cfg: dict, argv: list[str], batch_size: int, steps: int, dataset_root: Path, per_step: list[float]
+) -> dict[str, Any]:
+    """The result's ``config.training``: what ``lerobot-train`` ran with and its median s per step."""
+    return {
+        "batch_size": batch_size,
+        "steps": steps,
+        "seed": train_cfg.get("seed"),
+        "optimizer": (train_cfg.get("optimizer") or {}).get("type"),
+        "scheduler": (train_cfg.get("scheduler") or {}).get("type"),
+        "device": "cpu",
+        "dataset": str(dataset_root),
+        "demos": "all 10",
+        "median_s_per_step": float(np.median(per_step)) if per_step else None,
+        "command": " ".join(argv[1:]),
+    }
 
 
 def evaluate_checkpoint(
@@ -285,6 +283,7 @@ _KEY_POLICY_FIELDS = {"type", "n_obs_steps", "input_features", "output_features"
 
 
 def table(docs: list[dict[str, Any]]) -> str:
+    """A Markdown table of result documents: success, stops, forces, train and eval time."""
     rows = [
         "| task | method | steps | n | success | protective stops | max force N (mean ± std) | mean force N (mean ± std) | train s | eval s |",
         "|---|---|---|---|---|---|---|---|---|---|",
@@ -299,7 +298,7 @@ def table(docs: list[dict[str, Any]]) -> str:
     return "\n".join(rows)
 
 
-def main(argv: list[str] | None = None) -> int:
+def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
     )
@@ -329,66 +328,84 @@ def main(argv: list[str] | None = None) -> int:
         help="no training: evaluate the checkpoints under --work again (seeds and extras from the JSONs "
         "in --out, training figures kept), e.g. after an env change",
     )
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = _parser()
     args = p.parse_args(argv)
     if args.reevaluate:
         return _reevaluate(args, p)
-
-    from experiments.learned.baselines import derive_env_state_dataset
-    from lerobot_env_forcemap.env_state import parse_env_state_extras
-    from lerobot_forcemap.data.schema import require_dataset_root
-
     if args.smoke and (args.out == DEFAULT_OUT or args.work == DEFAULT_WORK):
         # the default --work holds the trained checkpoints (run_one replaces a task's folder) and the
         # default --out the results the report merges: a smoke run must not overwrite either
         p.error("--smoke needs --out and --work outside results/learned and outputs/learned")
-    try:
-        for task in args.tasks:
-            require_dataset_root(args.datasets / task, "--datasets")
-        extras = parse_env_state_extras(args.extras)
-        steps = parse_steps(args.steps, args.methods)
-        batch = parse_steps(args.batch_size, args.methods, "--batch-size")
-    except ValueError as err:
-        p.error(str(err))
-    episodes = args.episodes
-    if args.smoke:
-        steps = dict.fromkeys(args.methods, SMOKE_STEPS)
-        batch = dict.fromkeys(args.methods, 4)
-        episodes = min(episodes, SMOKE_EPISODES)
+    with usage_errors(p):
+        plan = _plan(args)
     args.out.mkdir(parents=True, exist_ok=True)
     docs = []
     for task in args.tasks:
-        todo = [m for m in args.methods if args.force or not (args.out / f"{task}__{m}.json").is_file()]
-        for m in args.methods:
-            if m not in todo:
-                print(f"skip {task}/{m}: {args.out / f'{task}__{m}.json'} exists (--force to redo)")
-        if todo:
-            ds_root = args.work / "datasets" / task
-            derive_env_state_dataset(args.datasets / task, ds_root, extras, overwrite=True)
-        for method in todo:
-            doc = run_one(
-                task,
-                method,
-                steps[method],
-                ds_root,
-                args.work,
-                episodes=episodes,
-                seed=args.seed,
-                batch_size=batch[method],
-                smoke=args.smoke,
-                extras=extras,
-            )
-            path = args.out / f"{task}__{method}.json"
-            path.write_text(json.dumps(doc, indent=1))
-            print(
-                f"{task}/{method}: success {100 * doc['success_rate']:.0f}% of {doc['n']}, "
-                f"max force {doc['max_contact_force']['mean']:.1f} N, train {doc['train_wall_time_s']:.0f} s -> {path}"
-            )
-        for m in args.methods:
-            path = args.out / f"{task}__{m}.json"
-            if path.is_file():
-                docs.append(json.loads(path.read_text()))
+        docs += _train_task(task, args, plan)
     print(table(docs))
     return 0
+
+
+def _plan(args: argparse.Namespace) -> dict[str, Any]:
+    """The checked datasets and settings: env-state extras, steps and batch size per method, episodes
+    (the ``--smoke`` sizes under ``--smoke``)."""
+    from lerobot_env_forcemap.env_state import parse_env_state_extras
+    from lerobot_forcemap.data.schema import require_dataset_root
+
+    for task in args.tasks:
+        require_dataset_root(args.datasets / task, "--datasets")
+    check_int("--episodes", args.episodes, low=1)
+    check_int("--seed", args.seed, low=0)
+    plan = {
+        "extras": parse_env_state_extras(args.extras),
+        "steps": parse_steps(args.steps, args.methods),
+        "batch": parse_steps(args.batch_size, args.methods, "--batch-size"),
+        "episodes": args.episodes,
+    }
+    if args.smoke:
+        plan["steps"] = dict.fromkeys(args.methods, SMOKE_STEPS)
+        plan["batch"] = dict.fromkeys(args.methods, 4)
+        plan["episodes"] = min(args.episodes, SMOKE_EPISODES)
+    return plan
+
+
+def _train_task(task: str, args: argparse.Namespace, plan: dict[str, Any]) -> list[dict[str, Any]]:
+    """Train and evaluate the methods of one task whose result is missing (or all with ``--force``) on
+    its derived dataset; returns every method's result document."""
+    from experiments.learned.baselines import derive_env_state_dataset
+
+    todo = [m for m in args.methods if args.force or not (args.out / f"{task}__{m}.json").is_file()]
+    for m in args.methods:
+        if m not in todo:
+            print(f"skip {task}/{m}: {args.out / f'{task}__{m}.json'} exists (--force to redo)")
+    ds_root = args.work / "datasets" / task
+    if todo:
+        derive_env_state_dataset(args.datasets / task, ds_root, plan["extras"], overwrite=True)
+    for method in todo:
+        doc = run_one(
+            task,
+            method,
+            plan["steps"][method],
+            ds_root,
+            args.work,
+            episodes=plan["episodes"],
+            seed=args.seed,
+            batch_size=plan["batch"][method],
+            smoke=args.smoke,
+            extras=plan["extras"],
+        )
+        path = args.out / f"{task}__{method}.json"
+        path.write_text(json.dumps(doc, indent=1))
+        print(
+            f"{task}/{method}: success {100 * doc['success_rate']:.0f}% of {doc['n']}, "
+            f"max force {doc['max_contact_force']['mean']:.1f} N, train {doc['train_wall_time_s']:.0f} s -> {path}"
+        )
+    paths = [args.out / f"{task}__{m}.json" for m in args.methods]
+    return [json.loads(path.read_text()) for path in paths if path.is_file()]
 
 
 def _reevaluate(args: argparse.Namespace, p: argparse.ArgumentParser) -> int:

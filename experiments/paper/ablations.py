@@ -5,8 +5,8 @@ evaluation seeds are dealt over the 10 demonstrations (n = 20 per cell):
 
 - ``base``: the tuned setting itself (same design, for a like-for-like comparison);
 - ``forces off``: delta = 0 (the plain elastic map — the policy's cleanest switch: no force points);
-- ``rho_max cap off``: rho_max = None (SPEC §1: without the cap a node's push grows without bound as
-  r -> 1 and flips sign for r > 1);
+- ``rho_max cap off``: rho_max = None (without the cap a node's push grows without bound as r -> 1
+  and flips sign for r > 1);
 - ``3-D map``: time_scale = 0 (the paper's map, no time coordinate);
 - ``one segment``: segments = none;
 - ``ground-truth segments``: the demonstrator's phase labels (``demo_phase``);
@@ -19,7 +19,8 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from experiments.paper.jobs import Job, auto_stream_weights
+from experiments.paper.demos import auto_stream_weights
+from experiments.paper.jobs import Job
 
 from .cells import Cell
 from .common import REPO, WEIGHTINGS, Settings, make_jobs

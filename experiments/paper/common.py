@@ -1,4 +1,4 @@
-"""Settings shared by the experiment stages (``run_all.py``): seeds, demos, grids, methods, paths.
+"""Settings shared by the experiment stages (``run_all.py``): seeds, demos, grids, methods, paths, jobs.
 
 Protocol (every stage):
 
@@ -15,15 +15,16 @@ Protocol (every stage):
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-REPO = Path(__file__).resolve().parents[2]
+from experiments.paper.jobs import EVAL_SEEDS, REPO_ROOT, TUNE_SEEDS, Job
+from lerobot_forcemap._validation import check_choice
+from lerobot_forcemap.envs.registration import task_spec
 
-from experiments.paper.jobs import EVAL_SEEDS, TUNE_SEEDS, Job, split_seeds  # noqa: E402
-from lerobot_forcemap.envs.registration import task_spec  # noqa: E402
-
+REPO = REPO_ROOT
 WORKDIR = REPO / "outputs" / "experiments"
 RESULTS = REPO / "results"
 LEARNED_DIR = RESULTS / "learned"
@@ -115,8 +116,7 @@ class Settings:
 
 def hybrid_kwargs(threshold: float, normal: str) -> dict[str, Any]:
     """HybridConfig kwargs for a threshold (N) and a normal mode (``fixed`` | ``measured``)."""
-    if normal not in HYBRID_NORMALS:
-        raise ValueError(f"hybrid normal: expected one of {HYBRID_NORMALS}, got {normal!r}")
+    check_choice("hybrid normal", normal, HYBRID_NORMALS)
     out: dict[str, Any] = {"force_threshold": float(threshold)}
     if normal == "measured":
         out["normal"] = None
@@ -124,6 +124,17 @@ def hybrid_kwargs(threshold: float, normal: str) -> dict[str, Any]:
 
 
 DESIGNS = ("full", "split")
+
+
+def split_seeds(seeds: Sequence[int], demos: Sequence[int]) -> dict[int, tuple[int, ...]]:
+    """Deal ``seeds`` round-robin over ``demos`` (episode i of the cell -> demo ``demos[i % len]``): n stays
+    ``len(seeds)`` while every demonstration is used. E.g. 20 seeds over 10 demos: 2 seeds each."""
+    if not demos:
+        raise ValueError("split_seeds: no demos")
+    out: dict[int, list[int]] = {int(d): [] for d in demos}
+    for i, s in enumerate(seeds):
+        out[int(demos[i % len(demos)])].append(int(s))
+    return {d: tuple(v) for d, v in out.items() if v}
 
 
 def make_jobs(
@@ -141,8 +152,7 @@ def make_jobs(
 ) -> list[Job]:
     """One job per demonstration. ``design="full"``: every demonstration on every seed;
     ``"split"``: the seeds dealt round-robin over the demonstrations (n = len(seeds))."""
-    if design not in DESIGNS:
-        raise ValueError(f"design: expected one of {DESIGNS}, got {design!r}")
+    check_choice("design", design, DESIGNS)
     seeds_by_demo = {d: tuple(seeds) for d in demos} if design == "full" else split_seeds(seeds, demos)
     return [
         Job(

@@ -15,7 +15,7 @@ Written from ``results/experiments.json`` (the settings tuning chose) and ``resu
   tuned force weights of Table II, peg_in_hole the tuned Table III settings, the grasping tasks their
   anchoring settings); ``--steps=1`` because the fit is closed form.
 - ``train/<act|diffusion>_<task>.json``: the learned baselines' ``lerobot-train`` runs (same settings as
-  ``learned_baselines.py``), on the derived dataset ``outputs/learned/datasets/<task>`` that script builds.
+  ``python -m experiments.learned``), on the derived dataset ``outputs/learned/datasets/<task>`` that script builds.
 - ``eval/<name>.json``: ``lerobot-eval`` of the checkpoint the train file writes, on the experiments'
   evaluation seeds (``seed`` = the first, one episode per seed), videos under ``outputs/eval/<name>``.
 
@@ -40,7 +40,7 @@ HEADLINE = {
     "grasp_push": ("grasp", "ours"),
     "grasp_flip": ("grasp", "ours"),
 }
-#: where ``learned_baselines.py`` (default ``--work``) writes the derived training datasets
+#: where ``python -m experiments.learned`` (default ``--work``) writes the derived training datasets
 LEARNED_DATASETS = Path("outputs/learned/datasets")
 
 

@@ -4,7 +4,7 @@ Every grid point runs the tuning demonstrations (0..4) on the tuning seeds (2000
 A grid point is *eligible* when all its tuning episodes succeed with no protective stop
 (success >= 95 % of 10 episodes means all 10).
 
-Table II (press, erase), three variants of ours (SPEC §1: force limits compared with the weights alone):
+Table II (press, erase), three variants of ours (force limits compared with the weights alone):
 
 - ``weights``: stiffness k from ``STIFFNESS_GRID``; choose the eligible k with the lowest mean
   contact force (mean over tuning demonstrations of the per-demonstration % change).
@@ -31,11 +31,16 @@ from typing import Any
 
 import numpy as np
 
-from experiments.paper.jobs import demo_change, demo_force_records, run_jobs
+from experiments.paper.demos import demo_force_records
+from experiments.paper.jobs import run_jobs
+from lerobot_forcemap.evaluation.stats import demo_change, summarize
 
-from .common import CONTACT_STIFFNESS, Settings, hybrid_kwargs, make_jobs
+from .common import CONTACT_STIFFNESS, REPO, Settings, hybrid_kwargs, make_jobs
 
-AXES = "xyz"
+T2_TASKS = ("press", "erase")
+PEG = "peg_in_hole"
+#: the figures of a grid row
+XYZ_KEYS = ("max_contact_force_xyz", "mean_contact_force_xyz")
 
 
 def _records(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -46,38 +51,29 @@ def grid_row(
     label: str, params: dict[str, Any], records: list[dict[str, Any]], demos: list[dict[str, Any]]
 ) -> dict[str, Any]:
     """Tuning figures of one grid point: success, stops, % change of max / mean force (mean and std over demos),
-    mean per-axis max / mean force, and eligibility."""
-    n = len(records)
-    ok = sum(r["success"] for r in records)
-    stops = sum(r["protective_stop"] for r in records)
+    mean per-axis max / mean force, and eligibility (every episode succeeds, no protective stop)."""
+    s = summarize(records, XYZ_KEYS, clipped=False)
     d_max = demo_change(records, demos, "max_contact_force")
     d_mean = demo_change(records, demos, "mean_contact_force")
-    row = {
+    return {
         "label": label,
         "params": params,
-        "n": n,
-        "success_rate": ok / n if n else 0.0,
-        "protective_stops": stops,
-        "eligible": n > 0 and ok / n >= 0.95 and stops == 0,
+        "n": s["n"],
+        "success_rate": s["success_rate"],
+        "protective_stops": s["protective_stops"],
+        "eligible": s["success_rate"] >= 0.95 and s["protective_stops"] == 0,
         "max_change_pct": d_max["mean"],
         "max_change_std": d_max["std"],  # over the tuning demonstrations, ddof 1
         "mean_change_pct": d_mean["mean"],
         "mean_change_std": d_mean["std"],
-        "max_xyz": np.mean([r["max_contact_force_xyz"] for r in records], axis=0).tolist(),
-        "mean_xyz": np.mean([r["mean_contact_force_xyz"] for r in records], axis=0).tolist(),
+        "max_xyz": s["max_contact_force_xyz"]["mean"],
+        "mean_xyz": s["mean_contact_force_xyz"]["mean"],
     }
-    return row
 
 
 def _pick_lowest_mean(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
     eligible = [r for r in rows if r["eligible"]]
     return min(eligible, key=lambda r: r["mean_change_pct"]) if eligible else None
-
-
-def _dataset(task: str):
-    from .common import REPO
-
-    return REPO / "datasets" / task
 
 
 def six_numbers(row: dict[str, Any]) -> np.ndarray:
@@ -113,18 +109,48 @@ class _Batch:
 
 def tune_all(s: Settings) -> dict[str, Any]:
     """Both phases for press, erase and peg_in_hole (module docstring); returns the tuning document."""
-    t2 = ("press", "erase")
-    peg = "peg_in_hole"
-    demos = {t: demo_force_records(_dataset(t)) for t in (*t2, peg)}
-
+    demos = {t: demo_force_records(REPO / "datasets" / t) for t in (*T2_TASKS, PEG)}
     # phase 1: stiffness of the weights, limit alone, hybrid threshold
-    b1 = _Batch(s)
-    for task in t2:
+    b1 = _phase1_batch(s)
+    b1.run("tuning 1/2")
+    out: dict[str, Any] = {}
+    best_w: dict[str, dict[str, Any] | None] = {}
+    for task in T2_TASKS:
+        out[task], best_w[task] = _weights_and_limit_alone(task, s, b1, demos[task])
+    k_star = {
+        task: best_w[task]["params"]["stiffness"] if best_w[task] else max(s.stiffness_grid[task])
+        for task in T2_TASKS
+    }
+    used = [d for d in demos[PEG] if d["episode"] in s.tune_demos]
+    demo_six = np.concatenate(
+        [
+            np.mean([d["max_contact_force_xyz"] for d in used], axis=0),
+            np.mean([d["mean_contact_force_xyz"] for d in used], axis=0),
+        ]
+    )
+    hybrid_rows = _hybrid_rows(s, b1, demos[PEG], demo_six)
+    best_h = min([r for r in hybrid_rows if r["eligible"]] or hybrid_rows, key=lambda r: r["normalised_sum"])
+    thr_star = best_h["params"]["force_threshold"]
+    # phase 2: the force limit on top of the chosen weights; ours on peg at the chosen threshold
+    b2 = _phase2_batch(s, k_star, thr_star)
+    b2.run("tuning 2/2")
+    for task in T2_TASKS:
+        first = best_w[task] or out[task]["weights"]["grid"][-1]
+        out[task]["weights_limit"] = _weights_limit(task, s, b2, demos[task], first, k_star[task])
+    out[PEG] = _peg_tuning(s, b2, demos[PEG], demo_six, hybrid_rows, best_h)
+    return out
+
+
+def _phase1_batch(s: Settings) -> _Batch:
+    """Phase 1's grid points: stiffness of the weights and the limit alone (press, erase), hybrid
+    threshold x normal (peg)."""
+    b = _Batch(s)
+    for task in T2_TASKS:
         for k in s.stiffness_grid[task]:
-            b1.add(f"{task}_k{k:g}", task, "forcemap", (f"stiffness={k:g}",))
+            b.add(f"{task}_k{k:g}", task, "forcemap", (f"stiffness={k:g}",))
         kc = CONTACT_STIFFNESS[task]
         for lim in s.limit_grid[task]:
-            b1.add(
+            b.add(
                 f"{task}_d0k{kc:g}L{lim:g}",
                 task,
                 "forcemap",
@@ -132,64 +158,66 @@ def tune_all(s: Settings) -> dict[str, Any]:
             )
     for thr in s.hybrid_thresholds:
         for normal in s.hybrid_normals:
-            b1.add(f"peg_hyb{thr:g}{normal}", peg, "hybrid", hybrid=hybrid_kwargs(thr, normal))
-    b1.run("tuning 1/2")
+            b.add(f"peg_hyb{thr:g}{normal}", PEG, "hybrid", hybrid=hybrid_kwargs(thr, normal))
+    return b
 
-    out: dict[str, Any] = {}
-    k_star: dict[str, float] = {}
-    for task in t2:
-        weights = [
-            grid_row(f"k={k:g}", {"stiffness": k}, b1.results[f"{task}_k{k:g}"], demos[task])
-            for k in s.stiffness_grid[task]
-        ]
-        best_w = _pick_lowest_mean(weights)
-        k_star[task] = best_w["params"]["stiffness"] if best_w else max(s.stiffness_grid[task])
-        kc = CONTACT_STIFFNESS[task]
-        alone = [
-            grid_row(
-                f"delta=0, k={kc:g}, L={lim:g}",
-                {"delta": 0.0, "stiffness": kc, "force_limit": lim},
-                b1.results[f"{task}_d0k{kc:g}L{lim:g}"],
-                demos[task],
-            )
-            for lim in s.limit_grid[task]
-        ]
-        best_a = _pick_lowest_mean(alone)
-        out[task] = {
-            "task": task,
-            "seeds": list(s.tune_seeds),
-            "demos": list(s.tune_demos),
-            "criterion": "eligible (all tuning episodes succeed, no protective stop); lowest mean-force change",
-            "weights": {"grid": weights, "chosen": best_w["params"] if best_w else None},
-            "limit_alone": {"grid": alone, "chosen": best_a["params"] if best_a else None},
-            "_best_w": best_w,
-        }
-    used = [d for d in demos[peg] if d["episode"] in s.tune_demos]
-    demo_six = np.concatenate(
-        [
-            np.mean([d["max_contact_force_xyz"] for d in used], axis=0),
-            np.mean([d["mean_contact_force_xyz"] for d in used], axis=0),
-        ]
-    )
-    hybrid_rows = []
+
+def _weights_and_limit_alone(
+    task: str, s: Settings, b1: _Batch, demos: list[dict[str, Any]]
+) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """A task's tuning entry with the weights' and the limit-alone grids and choices, and the best
+    weights row (None when no grid point is eligible)."""
+    weights = [
+        grid_row(f"k={k:g}", {"stiffness": k}, b1.results[f"{task}_k{k:g}"], demos)
+        for k in s.stiffness_grid[task]
+    ]
+    best_w = _pick_lowest_mean(weights)
+    kc = CONTACT_STIFFNESS[task]
+    alone = [
+        grid_row(
+            f"delta=0, k={kc:g}, L={lim:g}",
+            {"delta": 0.0, "stiffness": kc, "force_limit": lim},
+            b1.results[f"{task}_d0k{kc:g}L{lim:g}"],
+            demos,
+        )
+        for lim in s.limit_grid[task]
+    ]
+    best_a = _pick_lowest_mean(alone)
+    entry = {
+        "task": task,
+        "seeds": list(s.tune_seeds),
+        "demos": list(s.tune_demos),
+        "criterion": "eligible (all tuning episodes succeed, no protective stop); lowest mean-force change",
+        "weights": {"grid": weights, "chosen": best_w["params"] if best_w else None},
+        "limit_alone": {"grid": alone, "chosen": best_a["params"] if best_a else None},
+    }
+    return entry, best_w
+
+
+def _hybrid_rows(
+    s: Settings, b1: _Batch, demos: list[dict[str, Any]], demo_six: np.ndarray
+) -> list[dict[str, Any]]:
+    rows = []
     for thr in s.hybrid_thresholds:
         for normal in s.hybrid_normals:
             row = grid_row(
                 f"T={thr:g} N, normal {normal}",
                 {"force_threshold": thr, "normal": normal},
                 b1.results[f"peg_hyb{thr:g}{normal}"],
-                demos[peg],
+                demos,
             )
             row["normalised_sum"] = normalised_sum(row, demo_six)
-            hybrid_rows.append(row)
-    best_h = min([r for r in hybrid_rows if r["eligible"]] or hybrid_rows, key=lambda r: r["normalised_sum"])
-    thr_star = best_h["params"]["force_threshold"]
+            rows.append(row)
+    return rows
 
-    # phase 2: the force limit on top of the chosen weights; ours on peg at the chosen threshold
-    b2 = _Batch(s)
-    for task in t2:
+
+def _phase2_batch(s: Settings, k_star: dict[str, float], thr_star: float) -> _Batch:
+    """Phase 2's grid points: the force limit on the chosen weights; ours on peg with the chosen
+    hybrid threshold as its limit, stiffness x f_contact."""
+    b = _Batch(s)
+    for task in T2_TASKS:
         for lim in s.limit_grid[task]:
-            b2.add(
+            b.add(
                 f"{task}_k{k_star[task]:g}L{lim:g}",
                 task,
                 "forcemap",
@@ -197,40 +225,60 @@ def tune_all(s: Settings) -> dict[str, Any]:
             )
     for k in s.peg_stiffness_grid:
         for fc in s.peg_f_contact_grid:
-            b2.add(
+            b.add(
                 f"peg_k{k:g}fc{fc:g}L{thr_star:g}",
-                peg,
+                PEG,
                 "forcemap",
                 (f"stiffness={k:g}", f"force_limit={thr_star:g}", f"f_contact={fc:g}"),
             )
-    b2.run("tuning 2/2")
+    return b
 
-    for task in t2:
-        t = out[task]
-        best_w = t.pop("_best_w")
-        first = dict(best_w or t["weights"]["grid"][-1], label=f"k={k_star[task]:g}, no limit")
-        first["params"] = {"stiffness": k_star[task], "force_limit": None}
-        combined = [first] + [
-            grid_row(
-                f"k={k_star[task]:g}, L={lim:g}",
-                {"stiffness": k_star[task], "force_limit": lim},
-                b2.results[f"{task}_k{k_star[task]:g}L{lim:g}"],
-                demos[task],
-            )
-            for lim in s.limit_grid[task]
-        ]
-        best_c = _pick_lowest_mean(combined)
-        t["weights_limit"] = {"grid": combined, "chosen": best_c["params"] if best_c else None}
 
+def _weights_limit(
+    task: str,
+    s: Settings,
+    b2: _Batch,
+    demos: list[dict[str, Any]],
+    no_limit: dict[str, Any],
+    k: float,
+) -> dict[str, Any]:
+    """The weights + limit grid and its choice; ``no_limit`` (the chosen weights' row) competes as
+    "no limit"."""
+    first = dict(no_limit, label=f"k={k:g}, no limit")
+    first["params"] = {"stiffness": k, "force_limit": None}
+    combined = [first] + [
+        grid_row(
+            f"k={k:g}, L={lim:g}",
+            {"stiffness": k, "force_limit": lim},
+            b2.results[f"{task}_k{k:g}L{lim:g}"],
+            demos,
+        )
+        for lim in s.limit_grid[task]
+    ]
+    best_c = _pick_lowest_mean(combined)
+    return {"grid": combined, "chosen": best_c["params"] if best_c else None}
+
+
+def _peg_tuning(
+    s: Settings,
+    b2: _Batch,
+    demos: list[dict[str, Any]],
+    demo_six: np.ndarray,
+    hybrid_rows: list[dict[str, Any]],
+    best_h: dict[str, Any],
+) -> dict[str, Any]:
+    """peg_in_hole's entry: the hybrid grid and choice, and ours at the chosen threshold, chosen by how
+    many of the six numbers it gets below the tuned hybrid's."""
+    thr = best_h["params"]["force_threshold"]
     ref = six_numbers(best_h)
     ours_rows = []
     for k in s.peg_stiffness_grid:
         for fc in s.peg_f_contact_grid:
             row = grid_row(
-                f"k={k:g}, f_contact={fc:g}, L={thr_star:g}",
-                {"stiffness": k, "f_contact": fc, "force_limit": thr_star},
-                b2.results[f"peg_k{k:g}fc{fc:g}L{thr_star:g}"],
-                demos[peg],
+                f"k={k:g}, f_contact={fc:g}, L={thr:g}",
+                {"stiffness": k, "f_contact": fc, "force_limit": thr},
+                b2.results[f"peg_k{k:g}fc{fc:g}L{thr:g}"],
+                demos,
             )
             row["normalised_sum"] = normalised_sum(row, demo_six)
             row["below_hybrid"] = int(np.sum(six_numbers(row) < ref))
@@ -239,8 +287,8 @@ def tune_all(s: Settings) -> dict[str, Any]:
         [r for r in ours_rows if r["eligible"]] or ours_rows,
         key=lambda r: (-r["below_hybrid"], r["normalised_sum"]),
     )
-    out[peg] = {
-        "task": peg,
+    return {
+        "task": PEG,
         "seeds": list(s.tune_seeds),
         "demos": list(s.tune_demos),
         "demo_six": demo_six.tolist(),
@@ -255,4 +303,3 @@ def tune_all(s: Settings) -> dict[str, Any]:
             "criterion": "eligible; most of the six per-axis numbers below the tuned hybrid's, then lowest normalised sum",
         },
     }
-    return out

@@ -36,11 +36,8 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "show a dataset episode in Rerun with its force features and segments",
     ),
     "fit": ("lerobot_forcemap.cli.fit", "fit a forcemap policy from a dataset and save a checkpoint"),
-    "eval": (
-        "lerobot_forcemap.evaluation.evaluate",
-        "evaluate a policy in a sim task, one JSON record per episode",
-    ),
-    "report": ("lerobot_forcemap.evaluation.report", "tables and plots from eval records"),
+    "eval": ("lerobot_forcemap.cli.eval", "evaluate a policy in a sim task, one JSON record per episode"),
+    "report": ("lerobot_forcemap.cli.report", "tables and plots from eval records"),
     "push": (
         "lerobot_forcemap.cli.push",
         "push a dataset or a fitted policy to the Hugging Face Hub",

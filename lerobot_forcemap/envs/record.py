@@ -39,6 +39,7 @@ from ..layout import (
     ENV_FORCE,
     ENV_PIXELS,
     ENV_STATE,
+    EPISODES_FILE,
     OBS_EE_POSE,
     OBS_ENV_STATE,
     OBS_FINGER_FORCE,
@@ -51,8 +52,6 @@ from .rollout import Episode, Step, run_episode
 from .scene import CAMERA
 
 __all__ = ["EPISODES_FILE", "RecordResult", "episode_record", "record_demonstrations", "summary"]
-
-EPISODES_FILE = "forcemap_episodes.json"
 
 
 @dataclass

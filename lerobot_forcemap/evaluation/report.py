@@ -1,6 +1,7 @@
-"""``forcemap report``: tables and plots from ``forcemap eval`` JSON documents.
+"""Tables and plots from eval documents (``evaluate.evaluation_document``; ``forcemap report``).
 
-    forcemap report --json outputs/eval.json [more.json ...] --out outputs/report
+    check_eval_document(doc, "--json outputs/eval.json")
+    make_report([doc, ...], "outputs/report")
 
 Writes ``report.md`` (one table per document: success, protective stops, max / mean contact force
 norm and per axis of the demonstrations vs the reproduction, % change) and PNGs (Agg backend):
@@ -12,8 +13,7 @@ environment state, e.g. the button).
 
 from __future__ import annotations
 
-import argparse
-import json
+import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -21,7 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from lerobot_forcemap.evaluation.evaluate import DEMO_TRACE_COLUMNS, FORCE_KEYS, is_finite_number
+from lerobot_forcemap._validation import check_bool, check_int, check_real, check_str, fail, is_real
+from lerobot_forcemap.evaluation.records import DEMO_TRACE_COLUMNS, FORCE_KEYS
 
 __all__ = [
     "table_rows",
@@ -31,8 +32,6 @@ __all__ = [
     "plot_paths",
     "make_report",
     "check_eval_document",
-    "add_arguments",
-    "run",
 ]
 
 AXES = "xyz"
@@ -341,126 +340,126 @@ def _draw_report(docs: Sequence[dict[str, Any]], tmp: Path, out: Path) -> tuple[
     return "\n".join(parts), names
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--json", nargs="+", required=True, help="eval JSON file(s) from `forcemap eval`")
-    parser.add_argument("--out", required=True, help="output folder for report.md and PNGs")
+# ---- what a report reads ----------------------------------------------------------------------------------
+
+#: the fields of an eval document the tables and plots read, with their checks
+_DOCUMENT_FIELDS = {"task": check_str, "policy": check_str, "seed": check_int}
 
 
 def check_eval_document(doc: Any, where: str) -> None:
-    """Raise ``ValueError`` naming ``where`` and the field when ``doc`` is not what ``forcemap eval``
-    writes: the fields the tables and plots read, with their types."""
+    """``ValueError("<where>: <field>: must ...")`` when ``doc`` is not what ``forcemap eval`` writes:
+    the fields the tables and plots read, with their types (a NaN would print as "nan ± 0.0")."""
+    try:
+        _check_document(doc)
+    except ValueError as err:
+        raise ValueError(f"{where}: {err}") from None
 
-    def bad(field: str, what: str) -> ValueError:
-        return ValueError(f"{where}: {field} {what} (not a `forcemap eval` document)")
 
+def _check_document(doc: Any) -> None:
     if not isinstance(doc, dict):
-        raise bad("the document", f"is a JSON {type(doc).__name__}, expected an object")
-    for key, kind in (("task", str), ("policy", str), ("seed", int), ("summary", dict), ("episodes", list)):
-        if key not in doc:
-            raise bad(f"field {key!r}", "is missing")
-        if not isinstance(doc[key], kind) or isinstance(doc[key], bool):
-            raise bad(f"field {key!r}", f"is {type(doc[key]).__name__}, expected {kind.__name__}")
-    summary = doc["summary"]
-    n = summary.get("n")
-    if not isinstance(n, int) or n < 1 or len(doc["episodes"]) != n:
-        raise bad("summary.n", f"is {n!r} for {len(doc['episodes'])} episode record(s); a report needs >= 1")
-    for key in ("success_rate", "protective_stops"):
-        if not is_finite_number(summary.get(key)):
-            raise bad(f"summary.{key}", "is missing or not a finite number")
-    for key in ("max_contact_force", "mean_contact_force"):  # the bars of forces.png
-        if key not in summary:
-            raise bad(f"summary.{key}", "is missing")
-    summaries = {"summary": summary}
-    demos = doc.get("demonstrations")
-    if demos is not None:
-        if not isinstance(demos, dict):
-            raise bad("demonstrations", "is not an object")
-        if not isinstance(demos.get("source"), str):
-            raise bad("demonstrations.source", "is missing or not a string")
-        summaries.update(
-            {f"demonstrations.{k}": demos[k] for k in ("summary_fitted", "summary_all") if k in demos}
+        fail("the document", "be a JSON object (a `forcemap eval` document)", doc)
+    for key, rule in _DOCUMENT_FIELDS.items():
+        _present(doc, key, key)
+        rule(key, doc[key])
+    for key in ("summary", "episodes"):
+        _present(doc, key, key)
+    summary, episodes = doc["summary"], doc["episodes"]
+    if not isinstance(episodes, list):
+        fail("episodes", "be a list of episode records", episodes)
+    _check_summary("summary", summary)
+    if not (isinstance(summary.get("n"), int) and summary["n"] >= 1 and summary["n"] == len(episodes)):
+        fail(
+            "summary.n",
+            f"equal the number of episode records ({len(episodes)}) and be >= 1",
+            summary.get("n"),
         )
-    for name, block in summaries.items():  # the force statistics the tables format and the plots draw
-        if not isinstance(block, dict):
-            raise bad(name, "is not an object")
-        for key in FORCE_KEYS:
-            if key not in block:
-                continue
-            for part in ("mean", "std"):
-                value = block[key].get(part) if isinstance(block[key], dict) else None
-                per_axis = key.endswith("_xyz")
-                if not (
-                    isinstance(value, list) and len(value) == 3 and all(map(is_finite_number, value))
-                    if per_axis
-                    else is_finite_number(value)
-                ):
-                    raise bad(
-                        f"{name}.{key}.{part}",
-                        f"is {value!r}, expected {'3 numbers' if per_axis else 'a number'}",
-                    )
-    for i, rec in enumerate(doc["episodes"]):
-        _check_record(rec, f"episodes[{i}]", bad, seed=True)
-    if demos is not None:
-        if not isinstance(demos.get("episodes", []), list):
-            raise bad("demonstrations.episodes", "is not a list")
-        for i, rec in enumerate(demos.get("episodes", [])):
-            _check_record(rec, f"demonstrations.episodes[{i}]", bad, seed=False)
-            if not _is_int(rec.get("episode")):
-                raise bad(f"demonstrations.episodes[{i}].episode", "is missing or not an integer")
+    check_real("summary.success_rate", summary.get("success_rate"))
+    check_int("summary.protective_stops", summary.get("protective_stops"))
+    for key in ("max_contact_force", "mean_contact_force"):  # the bars of forces.png
+        _present(summary, key, f"summary.{key}")
+    for i, rec in enumerate(episodes):
+        _check_record(rec, f"episodes[{i}]")
+        check_int(f"episodes[{i}].seed", rec.get("seed"))
+    if doc.get("demonstrations") is not None:
+        _check_demonstrations(doc["demonstrations"])
 
 
-def _is_int(value: object) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
+def _present(block: dict, key: str, name: str) -> None:
+    if key not in block:
+        fail(name, "be present (a `forcemap eval` document holds it)")
 
 
-def _check_record(rec: Any, field: str, bad, *, seed: bool) -> None:
+def _check_demonstrations(demos: Any) -> None:
+    if not isinstance(demos, dict):
+        fail("demonstrations", "be a JSON object", demos)
+    check_str("demonstrations.source", demos.get("source"))
+    for key in ("summary_fitted", "summary_all"):
+        if key in demos:
+            _check_summary(f"demonstrations.{key}", demos[key])
+    episodes = demos.get("episodes", [])
+    if not isinstance(episodes, list):
+        fail("demonstrations.episodes", "be a list of episode records", episodes)
+    for i, rec in enumerate(episodes):
+        _check_record(rec, f"demonstrations.episodes[{i}]")
+        check_int(f"demonstrations.episodes[{i}].episode", rec.get("episode"))
+
+
+def _check_summary(name: str, block: Any) -> None:
+    """The force statistics the tables format and the plots draw: finite means and stds (3 per axis)."""
+    if not isinstance(block, dict):
+        fail(name, "be a JSON object", block)
+    for key in FORCE_KEYS:
+        if key not in block:
+            continue
+        for part in ("mean", "std"):
+            value = block[key].get(part) if isinstance(block[key], dict) else None
+            field = f"{name}.{key}.{part}"
+            if key.endswith("_xyz"):
+                _check_numbers(field, value, 3)
+            else:
+                check_real(field, value)
+
+
+def _check_numbers(name: str, value: Any, n: int) -> None:
+    """``value`` is a list of ``n`` finite numbers."""
+    if not (isinstance(value, list) and len(value) == n and all(map(_is_finite, value))):
+        fail(name, f"be a list of {n} finite numbers", value)
+
+
+def _is_finite(value: Any) -> bool:
+    return is_real(value) and math.isfinite(value)
+
+
+def _check_record(rec: Any, name: str) -> None:
     """One episode record: success, force figures, and its trace (columns, finite rows, environment state)."""
     if not isinstance(rec, dict):
-        raise bad(field, "is not an object")
-    if seed and not _is_int(rec.get("seed")):
-        raise bad(f"{field}.seed", "is missing or not an integer")
-    if not isinstance(rec.get("success"), bool):
-        raise bad(f"{field}.success", "is missing or not true/false")
+        fail(name, "be a JSON object (an episode record)", rec)
+    check_bool(f"{name}.success", rec.get("success"))
     for key in ("max_contact_force", "mean_contact_force"):
-        if not is_finite_number(rec.get(key)):
-            raise bad(f"{field}.{key}", f"is {rec.get(key)!r}, expected a finite number")
-    trace = rec.get("trace")
-    if not trace:
-        return
+        check_real(f"{name}.{key}", rec.get(key))
+    if rec.get("trace"):
+        _check_trace(rec["trace"], f"{name}.trace")
+
+
+def _check_trace(trace: Any, name: str) -> None:
     cols = trace.get("columns") if isinstance(trace, dict) else None
     rows = trace.get("rows") if isinstance(trace, dict) else None
     if not isinstance(cols, list) or not isinstance(rows, list):
-        raise bad(f"{field}.trace", "needs 'columns' and 'rows' lists")
+        fail(name, "hold 'columns' and 'rows' lists", trace)
     missing = [c for c in DEMO_TRACE_COLUMNS if c not in cols]  # what the plots read
     if missing:
-        raise bad(f"{field}.trace.columns", f"lacks {missing}")
+        fail(f"{name}.columns", f"hold the columns {list(DEMO_TRACE_COLUMNS)} (it lacks {missing})", cols)
     for j, row in enumerate(rows):
         if not isinstance(row, list) or len(row) != len(cols):
-            raise bad(f"{field}.trace.rows[{j}]", f"does not have the {len(cols)} columns {cols}")
-        if not all(map(is_finite_number, row)):
-            raise bad(f"{field}.trace.rows[{j}]", f"is {row!r}: not all finite numbers")
+            fail(f"{name}.rows[{j}]", f"hold the {len(cols)} columns {cols}", row)
+        if not all(map(_is_finite, row)):
+            fail(f"{name}.rows[{j}]", "hold finite numbers only", row)
     state, names = trace.get("environment_state"), trace.get("environment_state_names")
     if state is not None and not (
         isinstance(state, list)
-        and all(map(is_finite_number, state))
+        and all(map(_is_finite, state))
         and isinstance(names, list)
         and len(names) == len(state)
         and all(isinstance(n, str) for n in names)
     ):
-        raise bad(
-            f"{field}.trace.environment_state", "is not finite numbers matching environment_state_names"
-        )
-
-
-def run(args: argparse.Namespace) -> int:
-    docs = []
-    for p in args.json:
-        try:
-            docs.append(json.loads(Path(p).read_text()))
-        except (OSError, json.JSONDecodeError) as err:
-            raise ValueError(f"--json {p}: cannot read an eval document ({err})") from err
-        check_eval_document(docs[-1], f"--json {p}")
-    result = make_report(docs, args.out)
-    print(result["markdown"])
-    print("wrote", ", ".join(result["files"]))
-    return 0
+        fail(f"{name}.environment_state", "be finite numbers matching environment_state_names", state)

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from lerobot_forcemap.cli import main
-from lerobot_forcemap.evaluation.evaluate import compare, demonstration_records, summarize
+from lerobot_forcemap.evaluation.demonstrations import demonstration_records
+from lerobot_forcemap.evaluation.stats import percent_change, summarize
 from tests.conftest import REPO_ROOT
 
 
@@ -105,7 +106,7 @@ def test_summaries_and_change():
     )
     assert summarize(recs[:1])["max_contact_force"]["std"] == 0.0
     assert s["max_contact_force_xyz"]["mean"] == [2.0, 1.0, 20.0]
-    c = compare(summarize(recs[:1]), s)
+    c = percent_change(summarize(recs[:1]), s)
     assert c["max_contact_force_change_pct"] == pytest.approx(-50.0)
     assert c["mean_contact_force_xyz_change_pct"] == pytest.approx([-50.0, 0.0, -33.333333])
 
@@ -209,7 +210,7 @@ def test_cli_eval_on_an_unseen_object(tmp_path, capsys):
 
 
 def test_a_relative_fitted_dataset_is_found_from_elsewhere_or_named(tmp_path, monkeypatch, capsys):
-    from lerobot_forcemap.evaluation.evaluate import _default_dataset
+    from lerobot_forcemap.evaluation.evaluate import default_dataset
 
     repo = tmp_path / "repo"
     (repo / "datasets" / "press" / "meta").mkdir(parents=True)
@@ -219,10 +220,10 @@ def test_a_relative_fitted_dataset_is_found_from_elsewhere_or_named(tmp_path, mo
     # lerobot-train stores dataset.root as typed: relative to where training ran (the repo)
     (ckpt / "train_config.json").write_text(json.dumps({"dataset": {"root": "datasets/press"}}))
     monkeypatch.chdir(tmp_path)  # not the repo: the path is found from the checkpoint's parents
-    assert _default_dataset(ckpt) == repo / "datasets" / "press"
+    assert default_dataset(ckpt) == repo / "datasets" / "press"
     (ckpt / "train_config.json").write_text(json.dumps({"dataset": {"root": "datasets/gone"}}))
     capsys.readouterr()
-    assert _default_dataset(ckpt) is None
+    assert default_dataset(ckpt) is None
     assert (
         "note: the fitted dataset 'datasets/gone' (train_config.json) was not found"
         in capsys.readouterr().err
@@ -252,7 +253,7 @@ def test_a_bad_dataset_or_seed_is_refused_before_any_rollout(press_checkpoint, t
     base = ["eval", "--policy", str(press_checkpoint), "--task", "press", "--json", str(tmp_path / "e.json")]
     with pytest.raises(ValueError, match=r"--dataset .*nope: not a LeRobot dataset \(no meta/info.json\)"):
         main([*base, "--dataset", str(tmp_path / "nope")])
-    with pytest.raises(ValueError, match="--seed must be >= 0, got -1"):
+    with pytest.raises(ValueError, match="--seed: must be an integer >= 0, got -1"):
         main([*base, "--seed", "-1"])
     # --videos without --video-dir filmed nothing and said nothing
     with pytest.raises(ValueError, match=r"--videos 2: give --video-dir too"):
@@ -288,7 +289,8 @@ def test_a_wrong_comparison_or_output_path_is_refused_before_any_rollout(
     doc["episodes"][2]["max_contact_force"] = float("nan")
     meta.write_text(json.dumps(doc))
     with pytest.raises(
-        ValueError, match=r"forcemap_episodes.json: episodes\[2\].max_contact_force: nan is not a finite"
+        ValueError,
+        match=r"forcemap_episodes.json: episodes\[2\].max_contact_force: must be a finite number, got nan",
     ):
         main([*base, "--dataset", str(nan)])
     meta.write_text("{not json")

@@ -7,8 +7,9 @@ import json
 import numpy as np
 
 from lerobot_forcemap.cli import main
-from lerobot_forcemap.evaluation.evaluate import TRACE_COLUMNS, summarize
+from lerobot_forcemap.evaluation.records import TRACE_COLUMNS
 from lerobot_forcemap.evaluation.report import make_report, table_rows
+from lerobot_forcemap.evaluation.stats import summarize
 
 
 def _record(seed, fmax, fmean, trace=True):
@@ -138,43 +139,47 @@ def test_what_is_not_an_eval_document_is_named(tmp_path):
     nan_mean = _doc()
     nan_mean["summary"]["max_contact_force"]["mean"] = float("nan")  # JSON NaN: "nan ± 0.0" in a table
     cases = [
-        (nan_mean, r"summary.max_contact_force.mean is nan, expected a number"),
-        (bad_mean, r"summary.max_contact_force.mean is 'abc', expected a number"),
+        (nan_mean, r"summary.max_contact_force.mean: must be a finite number, got nan"),
+        (bad_mean, r"summary.max_contact_force.mean: must be a finite number, got 'abc'"),
         (
             bad_axes,
-            r"demonstrations.summary_all.mean_contact_force_xyz.std is \[1.0, 2.0\], expected 3 numbers",
+            r"demonstrations.summary_all.mean_contact_force_xyz.std: must be a list of 3 finite numbers, "
+            r"got \[1.0, 2.0\]",
         ),
-        (3, "the document is a JSON int"),
-        ({**good, "episodes": [], "summary": summarize([])}, r"summary.n is 0 for 0 episode record\(s\)"),
-        ({k: v for k, v in good.items() if k != "policy"}, "field 'policy' is missing"),
-        ({**good, "seed": "1000"}, "field 'seed' is str, expected int"),
-        (bad_trace, r"episodes\[1\].trace.rows\[3\] does not have the 19 columns"),
+        (3, "the document: must be a JSON object .*, got 3"),
+        (
+            {**good, "episodes": [], "summary": summarize([])},
+            r"summary.n: must equal the number of episode records \(0\) and be >= 1, got 0",
+        ),
+        ({k: v for k, v in good.items() if k != "policy"}, "policy: must be present"),
+        ({**good, "seed": "1000"}, "seed: must be an integer, got '1000'"),
+        (bad_trace, r"episodes\[1\].trace.rows\[3\]: must hold the 19 columns"),
     ]
     # what the plots read used to fail inside them (KeyError, a float() of a string) or draw silently
     edits = {
-        r"summary.max_contact_force is missing": lambda d: d["summary"].pop("max_contact_force"),
-        r"episodes\[0\].seed is missing": lambda d: d["episodes"][0].pop("seed"),
-        r"episodes\[1\].success is missing or not true/false": lambda d: d["episodes"][1].pop("success"),
-        r"episodes\[0\].max_contact_force is nan, expected a finite number": lambda d: d["episodes"][
+        r"summary.max_contact_force: must be present": lambda d: d["summary"].pop("max_contact_force"),
+        r"episodes\[0\].seed: must be an integer, got None": lambda d: d["episodes"][0].pop("seed"),
+        r"episodes\[1\].success: must be true or false, got None": lambda d: d["episodes"][1].pop("success"),
+        r"episodes\[0\].max_contact_force: must be a finite number, got nan": lambda d: d["episodes"][
             0
         ].update(max_contact_force=float("nan")),
-        r"episodes\[0\].trace.columns lacks \['fx'\]": lambda d: d["episodes"][0]["trace"].update(
-            columns=["time" if c == "fx" else c for c in TRACE_COLUMNS]
-        ),
-        r"episodes\[0\].trace.rows\[40\] is .*: not all finite numbers": lambda d: d["episodes"][0]["trace"][
-            "rows"
-        ][40].__setitem__(3, "abc"),
-        r"episodes\[1\].trace.rows\[2\] is .*: not all finite numbers": lambda d: d["episodes"][1]["trace"][
-            "rows"
-        ][2].__setitem__(0, float("nan")),
-        r"episodes\[0\].trace.environment_state is not finite numbers": lambda d: d["episodes"][0][
+        r"episodes\[0\].trace.columns: must hold the columns .* \(it lacks \['fx'\]\)": lambda d: d[
+            "episodes"
+        ][0]["trace"].update(columns=["time" if c == "fx" else c for c in TRACE_COLUMNS]),
+        r"episodes\[0\].trace.rows\[40\]: must hold finite numbers only, got .*'abc'": lambda d: d[
+            "episodes"
+        ][0]["trace"]["rows"][40].__setitem__(3, "abc"),
+        r"episodes\[1\].trace.rows\[2\]: must hold finite numbers only, got \[nan": lambda d: d["episodes"][
+            1
+        ]["trace"]["rows"][2].__setitem__(0, float("nan")),
+        r"episodes\[0\].trace.environment_state: must be finite numbers matching": lambda d: d["episodes"][0][
             "trace"
         ].update(environment_state=["a"] * 8),
-        r"demonstrations.source is missing": lambda d: d["demonstrations"].pop("source"),
-        r"demonstrations.episodes\[0\].episode is missing": lambda d: d["demonstrations"]["episodes"][0].pop(
-            "episode"
-        ),
-        r"demonstrations.episodes\[0\].trace.rows\[5\] does not have the 10 columns": lambda d: d[
+        r"demonstrations.source: must be a string, got None": lambda d: d["demonstrations"].pop("source"),
+        r"demonstrations.episodes\[0\].episode: must be an integer, got None": lambda d: d["demonstrations"][
+            "episodes"
+        ][0].pop("episode"),
+        r"demonstrations.episodes\[0\].trace.rows\[5\]: must hold the 10 columns": lambda d: d[
             "demonstrations"
         ]["episodes"][0]["trace"]["rows"][5].pop(),
     }

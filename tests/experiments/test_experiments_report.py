@@ -1,4 +1,4 @@
-"""``experiments.paper.report``: the learned-baseline merge, the target checks and the tables."""
+"""The experiments report: the learned-baseline merge, the target checks and the tables."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from experiments.paper import report
+from experiments.paper import learned_rows, tables, targets
 
 
 def _stat(mean):
@@ -46,7 +46,7 @@ def test_learned_records_merge_done_and_pending(tmp_path):
             {"max_contact_force": 70.0, "mean_contact_force": 10.0},
         ]
     }
-    recs = report.learned_records(tmp_path, demos)
+    recs = learned_rows.learned_records(tmp_path, demos)
     assert len(recs) == 6  # 3 tasks x 2 methods
     act = next(r for r in recs if r["task"] == "press" and r["method"] == "act")
     assert act["status"] == "done" and act["n"] == 20 and act["success_rate"] == pytest.approx(0.75)
@@ -57,12 +57,14 @@ def test_learned_records_merge_done_and_pending(tmp_path):
     assert act["train_wall_time_s"] == 1234.0
     pending = [r for r in recs if r["status"] == "pending"]
     assert len(pending) == 5 and {r["experiment"] for r in pending} == {"table2", "peg"}
-    lines = "\n".join(report.table2_md(recs, "press"))
+    lines = "\n".join(tables.table2_md(recs, "press"))
     assert "pending" in lines and "-84.35%" in lines and "-66.64%" in lines
     # a --smoke run's JSON (3 training steps) in the folder is not merged as the baseline
     (tmp_path / "press__act.json").write_text(json.dumps({**doc, "config": {"smoke": True}}))
     act = next(
-        r for r in report.learned_records(tmp_path, demos) if r["method"] == "act" and r["task"] == "press"
+        r
+        for r in learned_rows.learned_records(tmp_path, demos)
+        if r["method"] == "act" and r["task"] == "press"
     )
     assert act["status"] == "pending"
 
@@ -98,12 +100,12 @@ def test_targets_are_checked_against_the_papers_numbers():
         _peg("hybrid", [3, 3, 12, 0.2, 0.2, 0.5]),
         _peg("ours", [2, 2, 10, 0.1, 0.1, 0.4]),
     ]
-    t = {(x["target"].split(":")[0], x["method"]): x["met"] for x in report.targets(recs)}
+    t = {(x["target"].split(":")[0], x["method"]): x["met"] for x in targets.targets(recs)}
     assert t[("press", "ours")] and not t[("press", "ours_limit")]
     assert t[("erase", "ours")] and not t[("erase", "ours_limit")]
     assert t[("peg_in_hole", "ours")]
     recs[-1] = _peg("ours", [2, 2, 13, 0.1, 0.1, 0.4])  # Z max above the hybrid's
-    peg = next(x for x in report.targets(recs) if x["target"].startswith("peg"))
+    peg = next(x for x in targets.targets(recs) if x["target"].startswith("peg"))
     assert not peg["met"] and "Z max >=" in peg["value"]
 
 
@@ -117,13 +119,13 @@ def test_a_target_met_by_the_mean_alone_says_so():
     clear = _t2("erase", "ours", -68.0, -80.9, 1.0, coverage=1.0)
     clear["change_vs_demo"]["mean_contact_force"]["ci95"] = 0.2
     clear["success_ci95"] = [0.93, 1.0]
-    t = {x["target"].split(":")[0]: x for x in report.targets([press, clear])}
+    t = {x["target"].split(":")[0]: x for x in targets.targets([press, clear])}
     assert t["press"]["met"] and not t["press"]["force_met_with_95_interval"]
     assert "max -84.6% [-87.4, -81.8]" in t["press"]["value"]
     assert t["erase"]["met"] and t["erase"]["force_met_with_95_interval"]
     rows = [
         line
-        for line in report.targets_md([t["press"], t["erase"]])
+        for line in tables.targets_md([t["press"], t["erase"]])
         if line.startswith(("| press", "| erase"))
     ]
     assert rows[0].endswith("| yes | no | 72% |") and rows[1].endswith("| yes | yes | 93% |")
@@ -133,7 +135,7 @@ def test_table3_has_the_papers_rows_and_our_spreads():
     recs = [_peg("hybrid", np.arange(6.0)), _peg("ours", np.arange(6.0) / 2)]
     recs[0].update(label="hybrid", n=200, success_rate=1.0, success_ci95=[0.98, 1.0], protective_stops=0)
     recs[1].update(label="ours", n=200, success_rate=1.0, success_ci95=[0.98, 1.0], protective_stops=0)
-    lines = report.table3_md(recs)
+    lines = tables.table3_md(recs)
     assert any(line.startswith("| **paper: Control** |") and "44.01" in line for line in lines)
     ours = next(line for line in lines if line.startswith("| ours |"))
     assert "1.00 ± 0.00" in ours and "100% [98, 100]" in ours
@@ -155,7 +157,7 @@ def test_learned_records_show_lerobot_evals_success(tmp_path):
         "lerobot_eval": ran,
     }
     (tmp_path / "erase__diffusion.json").write_text(json.dumps({**doc, "episodes": eps}))
-    rec = next(r for r in report.learned_records(tmp_path, {}) if r["status"] == "done")
+    rec = next(r for r in learned_rows.learned_records(tmp_path, {}) if r["status"] == "done")
     assert rec["lerobot_eval"] == ran and rec["wall_time_s"] == 99.0
     assert rec["label"].endswith("all 10 demos; lerobot-eval 70%)")
 
@@ -169,7 +171,7 @@ def test_learned_section_names_the_seeds_lerobot_eval_judged_otherwise(tmp_path)
         ran = {"n": 4, "seeds": seeds, "success_rate": sum(ran_ok) / 4, "successes": ran_ok}
         doc = {"task": "press", "method": method, "train_steps": 10, "lerobot_eval": ran, "episodes": eps}
         (tmp_path / f"press__{method}.json").write_text(json.dumps(doc))
-    recs = [r for r in report.learned_records(tmp_path, {}) if r["status"] == "done"]
+    recs = [r for r in learned_rows.learned_records(tmp_path, {}) if r["status"] == "done"]
     assert {r["method"]: r["lerobot_eval_disagreeing_seeds"] for r in recs} == {
         "act": [],
         "diffusion": [1000, 1003],
@@ -187,9 +189,9 @@ def test_table2_and_grasp_tables_give_spreads_of_their_extra_columns():
     rec["change_vs_demo"] = {
         k: {"mean": -40.0, "std": 1.0} for k in ("max_contact_force", "mean_contact_force")
     }
-    assert "| 0.950 ± 0.025 |" in "\n".join(report.table2_md([rec], "erase"))
+    assert "| 0.950 ± 0.025 |" in "\n".join(tables.table2_md([rec], "erase"))
     grasp = {
         "experiment": "grasp", "task": "grasp_push", "object": "book", "seen": True, "label": "ours", "n": 20,
         "success_rate": 1.0, "protective_stops": 0, "max_finger_force": {"mean": [10.0, 11.0, 12.0], "std": [1.0, 2.0, 3.0]},
     }  # fmt: skip
-    assert "| 10.0 ± 1.0, 11.0 ± 2.0, 12.0 ± 3.0 |" in "\n".join(report.grasp_md([grasp]))
+    assert "| 10.0 ± 1.0, 11.0 ± 2.0, 12.0 ± 3.0 |" in "\n".join(tables.grasp_md([grasp]))
