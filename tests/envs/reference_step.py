@@ -27,21 +27,110 @@ from lerobot_forcemap.envs.base_env import ForceTaskEnv
 from lerobot_forcemap.envs.control import ClipReport, SpeedLimit, Workspace
 from lerobot_forcemap.envs.registration import env_class, task_spec
 from lerobot_forcemap.envs.scene import CAMERA, BaseFrame
-from lerobot_forcemap.envs.sensing import LowPass, Payload
-from lerobot_forcemap.envs.tasks.base import StepBlock
-from lerobot_forcemap.geometry import (
-    quat_conjugate,
-    quat_multiply,
-    quat_normalize,
-    quat_rotate,
-    quat_to_matrix,
-    quat_to_rotvec,
-    rotvec_to_quat,
-    slerp,
+from lerobot_forcemap.envs.sensing import GRAVITY, LowPass, Payload
+from lerobot_forcemap.envs.tasks import erase, grasping, peg_in_hole
+from lerobot_forcemap.envs.tasks.base import StepBlock, TaskStatus
+from lerobot_forcemap.layout import (
+    ENV_AGENT_POS,
+    ENV_EE_POSE,
+    ENV_FINGER_FORCE,
+    ENV_FORCE,
+    ENV_PIXELS,
+    ENV_STATE,
 )
-from lerobot_forcemap.layout import ENV_AGENT_POS, ENV_EE_POSE, ENV_FINGER_FORCE, ENV_FORCE, ENV_PIXELS, ENV_STATE
 
-__all__ = ["ReferenceFrame", "make_reference", "reference_class"]
+__all__ = ["ReferenceFrame", "make_reference", "reference_class", "reference_task_class"]
+
+
+# ---- the vectorised quaternion helpers, as the step called them (lerobot_forcemap.geometry) --------------
+
+
+def quat_normalize(q):
+    q = np.asarray(q, dtype=float)
+    n = np.linalg.norm(q, axis=-1, keepdims=True)
+    if np.any(n < 1e-12):
+        raise ValueError("q: must hold quaternions of norm >= 1e-12")
+    return q / n
+
+
+def quat_conjugate(q):
+    q = np.asarray(q, dtype=float)
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def quat_multiply(a, b):
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    aw, ax, ay, az = np.moveaxis(a, -1, 0)
+    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    return np.stack(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ],
+        axis=-1,
+    )
+
+
+def quat_to_matrix(q):
+    q = quat_normalize(q)
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    out = np.empty((*q.shape[:-1], 3, 3))
+    out[..., 0, 0] = 1 - 2 * (y * y + z * z)
+    out[..., 0, 1] = 2 * (x * y - w * z)
+    out[..., 0, 2] = 2 * (x * z + w * y)
+    out[..., 1, 0] = 2 * (x * y + w * z)
+    out[..., 1, 1] = 1 - 2 * (x * x + z * z)
+    out[..., 1, 2] = 2 * (y * z - w * x)
+    out[..., 2, 0] = 2 * (x * z - w * y)
+    out[..., 2, 1] = 2 * (y * z + w * x)
+    out[..., 2, 2] = 1 - 2 * (x * x + y * y)
+    return out
+
+
+def quat_rotate(q, v):
+    q = quat_normalize(q)
+    v = np.asarray(v, dtype=float)
+    w = q[..., :1]
+    u = q[..., 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def quat_to_rotvec(q):
+    q = quat_normalize(q)
+    q = np.where(q[..., :1] < 0, -q, q)
+    vec = q[..., 1:]
+    s = np.linalg.norm(vec, axis=-1, keepdims=True)
+    angle = 2.0 * np.arctan2(s, q[..., :1])
+    scale = np.where(s > 1e-12, angle / np.maximum(s, 1e-300), 2.0)
+    return vec * scale
+
+
+def rotvec_to_quat(r):
+    r = np.asarray(r, dtype=float)
+    angle = np.linalg.norm(r, axis=-1, keepdims=True)
+    half = 0.5 * angle
+    scale = np.where(angle > 1e-12, np.sin(half) / np.maximum(angle, 1e-300), 0.5)
+    return np.concatenate([np.cos(half), r * scale], axis=-1)
+
+
+def slerp(q0, q1, t):
+    q0 = quat_normalize(q0)
+    q1 = quat_normalize(q1)
+    t = np.asarray(t, dtype=float)[..., None]
+    dot = np.sum(q0 * q1, axis=-1, keepdims=True)
+    q1 = np.where(dot < 0, -q1, q1)
+    dot = np.abs(dot)
+    theta = np.arccos(np.clip(dot, -1.0, 1.0))
+    sin_theta = np.sin(theta)
+    near = sin_theta < 1e-8
+    safe = np.where(near, 1.0, sin_theta)
+    w0 = np.where(near, 1.0 - t, np.sin((1.0 - t) * theta) / safe)
+    w1 = np.where(near, t, np.sin(t * theta) / safe)
+    return quat_normalize(w0 * q0 + w1 * q1)
 
 
 # ---- targets -----------------------------------------------------------------------------------------
@@ -110,7 +199,10 @@ def reaction_wrench_base(
 ) -> np.ndarray:
     """Tared reaction wrench in the base frame ``(n, 6)`` from raw F/T rows ``(n, 6)`` (site frame)."""
     rot = quat_to_matrix(quat_site)
-    tool_site = raw_site - payload.expected_wrench_from_mat(rot) - bias_site
+    f_site = payload.mass * GRAVITY * rot[:, 2, :]
+    c = payload.com_site
+    t_site = f_site @ np.array([[0.0, -c[2], c[1]], [c[2], 0.0, -c[0]], [-c[1], c[0], 0.0]]).T
+    tool_site = raw_site - np.concatenate([f_site, t_site], axis=1) - bias_site
     if base_rot_inv is not None:
         rot = base_rot_inv[None] @ rot
     force = -np.einsum("nij,nj->ni", rot, tool_site[:, :3])
@@ -167,6 +259,126 @@ class ReferenceFrame(BaseFrame):
         return quat_rotate(quat_conjugate(self.quat), v)
 
 
+# ---- task code the step runs, as it was ---------------------------------------------------------------
+
+
+class _ReferenceErase:
+    """``EraseTask``'s step methods through the reference quaternion helpers."""
+
+    @property
+    def coverage(self) -> float:
+        return float(self.erased.mean())
+
+    def update(self, data, block: StepBlock) -> TaskStatus:
+        sd = block.sensordata
+        normal = sd[:, self._felt_force.start + 2]
+        self.felt_force = float(normal[-1])
+        pressing = normal > erase.ERASE_FORCE
+        if pressing.any():
+            rows = sd[pressing]
+            felt_pos = rows[:, self._felt_pos]
+            rot = quat_to_matrix(rows[:, self._felt_quat])
+            rel = self._ink_world[None, :, :] - felt_pos[:, None, :]
+            local = np.einsum("kji,knj->kni", rot, rel)
+            under = (
+                (np.abs(local[..., 0]) <= erase.PAD_HALF[0])
+                & (np.abs(local[..., 1]) <= erase.PAD_HALF[1])
+                & (np.abs(local[..., 2]) < 0.01)
+            )
+            newly = under.any(axis=0) & ~self.erased
+            if newly.any():
+                self.erased |= newly
+                self.model.geom_rgba[self._ink_geoms[newly]] = erase.ERASED_RGBA
+        if self.coverage >= erase.SUCCESS_COVERAGE:
+            self.reached_coverage = True
+        if self.reached_coverage:
+            felt_z = sd[-1, self._felt_pos.start + 2]
+            self.lifted = (
+                felt_z >= self.board_pose_world()[0][2] + erase.LIFT_HEIGHT
+                and self.felt_force < erase.RELEASE_FORCE
+            )
+        return TaskStatus(
+            success=self.reached_coverage and self.lifted,
+            failure_reason="" if self.reached_coverage else "not_erased",
+        )
+
+
+class _ReferenceGrasp:
+    """``GraspTask``'s step methods through the reference quaternion helpers."""
+
+    def environment_state(self, data) -> np.ndarray:
+        pos, quat = self.object_pose(data)
+        clearance = grasping.lowest_point(self.obj, pos, quat_to_matrix(quat))
+        return np.concatenate(
+            [
+                self.frame.pos_to_base(pos),
+                self.frame.quat_to_base(quat),
+                self.obj.half_extents,
+                [clearance],
+                self.fixture_state(),
+            ]
+        )
+
+    def update(self, data, block: StepBlock) -> TaskStatus:
+        pos, quat = self.object_pose(data)
+        rot = quat_to_matrix(quat)
+        self.clearance = grasping.lowest_point(self.obj, pos, rot)
+        self.max_clearance = max(self.max_clearance, self.clearance)
+        if self.clearance < grasping.RESTING_CLEARANCE and not self.pregrasp:
+            self.pregrasp = self.pregrasp_achieved(pos, rot)
+        ready = self.pregrasp or not self.obj.demonstration
+        if self.clearance >= grasping.LIFT_HEIGHT and ready:
+            self.hold_time += len(block.sensordata) * self._dt
+        else:
+            self.hold_time = 0.0
+        self.off_table = bool(pos[2] < -0.02)
+        success = self.hold_time >= grasping.HOLD_TIME - 1e-9
+        reason = ""
+        if self.off_table:
+            reason = "object_off_table"
+        elif not success:
+            reason = f"not_{self.pregrasp_name}" if not ready else "not_lifted"
+        return TaskStatus(success=success, failed=self.off_table, failure_reason=reason)
+
+
+class _ReferencePegInHole:
+    """``PegInHoleTask.update`` as it was."""
+
+    def update(self, data, block: StepBlock) -> TaskStatus:
+        sd = block.sensordata
+        top = self.peg_top_world()
+        disc = sd[-1, self._disc_pos]
+        self.lateral = float(np.linalg.norm(disc[:2] - top[:2]))
+        bottom = disc[2] - peg_in_hole.RING_HALF_THICK
+        self.depth = float(max(0.0, top[2] - bottom)) if self.lateral <= peg_in_hole.RING_INNER else 0.0
+        free = sd[:, self._disc_found] == 0
+        n_free_tail = len(free) - int(np.max(np.nonzero(~free)[0], initial=-1)) - 1
+        if n_free_tail == len(free):
+            self.released_time += len(sd) * self.model.opt.timestep
+        else:
+            self.released_time = n_free_tail * self.model.opt.timestep
+        inserted = self.lateral <= peg_in_hole.SUCCESS_LATERAL and self.depth >= peg_in_hole.SUCCESS_DEPTH
+        settled = self.released_time >= peg_in_hole.RELEASE_TIME
+        return TaskStatus(
+            success=inserted and settled,
+            failed=settled and not inserted,
+            failure_reason="dropped" if settled and not inserted else ("" if inserted else "not_inserted"),
+        )
+
+
+@functools.cache
+def reference_task_class(cls: type) -> type:
+    """``cls`` with the reference versions of its step methods (itself if none changed)."""
+    for base, mixin in (
+        (erase.EraseTask, _ReferenceErase),
+        (grasping.GraspTask, _ReferenceGrasp),
+        (peg_in_hole.PegInHoleTask, _ReferencePegInHole),
+    ):
+        if issubclass(cls, base):
+            return type(f"Reference{cls.__name__}", (mixin, cls), {})
+    return cls
+
+
 # ---- the env -----------------------------------------------------------------------------------------
 
 
@@ -178,6 +390,10 @@ class ReferenceStepMixin:
         self.frame = ReferenceFrame(self.frame.pos, self.frame.quat)
         self.task_impl.frame = self.frame
         self._buf = np.empty((self.n_substeps, self.model.nsensordata))
+        ix = self.index
+        self._ref_wrench_cols = np.r_[
+            ix.wrist_force.start : ix.wrist_force.stop, ix.wrist_torque.start : ix.wrist_torque.stop
+        ]
         self._ref_saved_state = np.empty(mujoco.mj_stateSize(self.model, mujoco.mjtState.mjSTATE_INTEGRATION))
         self._wrench_filter = LowPass(self.force_cutoff_hz, self.timestep, 6)
         self._contact_filter = LowPass(self.force_cutoff_hz, self.timestep, 3)
@@ -264,7 +480,7 @@ class ReferenceStepMixin:
         quat = buf[:, ix.ft_quat]
         wrench = self._wrench_filter(
             reaction_wrench_base(
-                buf[:, self._wrench_cols], quat, self.payload, self.bias_site, self._base_rot_inv
+                buf[:, self._ref_wrench_cols], quat, self.payload, self.bias_site, self._base_rot_inv
             )
         )
         n = len(buf)
@@ -307,7 +523,7 @@ class ReferenceStepMixin:
 
     def _observation(self) -> dict[str, Any]:
         d, ix = self.data, self.index
-        closure = self.robot.gripper.opening(d.qpos[ix.gripper_qpos])
+        closure = self.robot.gripper.opening(d.qpos[ix.gripper_qpos][None])[0]  # the vectorised path
         pos, quat = self.tcp_pose()
         obs: dict[str, Any] = {
             ENV_AGENT_POS: np.concatenate([d.qpos[ix.arm_qpos], [closure]]).astype(np.float32),
@@ -344,7 +560,9 @@ class ReferenceStepMixin:
             "clip_angle": clip.clipped_angle,
             "n_clipped_steps": self._n_clipped,
             "tracking_error": float(
-                np.linalg.norm(self.data.site_xpos[self.index.tcp_site] - self.data.mocap_pos[self.index.mocap])
+                np.linalg.norm(
+                    self.data.site_xpos[self.index.tcp_site] - self.data.mocap_pos[self.index.mocap]
+                )
             ),
             "elapsed_s": self._steps * self.control_dt,
         }
@@ -358,7 +576,11 @@ class ReferenceStepMixin:
 @functools.cache
 def reference_class(cls: type[ForceTaskEnv]) -> type[ForceTaskEnv]:
     """``cls`` with the reference step (one class per env class)."""
-    return type(f"Reference{cls.__name__}", (ReferenceStepMixin, cls), {})
+    return type(
+        f"Reference{cls.__name__}",
+        (ReferenceStepMixin, cls),
+        {"task_class": reference_task_class(cls.task_class)},
+    )
 
 
 def make_reference(task: str, **kwargs) -> gym.Env:
