@@ -7,7 +7,8 @@ One control step (``1 / TaskSpec.control_hz`` s, 20 Hz for every task):
    ``ValueError`` naming the entry), its quaternion normalised, and the target clipped to the task's workspace box and
    speed limit — every clip is reported in ``info`` (``target_clipped``, ``clip_*``);
 2. the target is interpolated per physics step (linear + slerp) and moved along by the impedance
-   controller's mocap body; MuJoCo computes the impedance wrench at each 2 ms step;
+   controller's mocap body; MuJoCo computes the impedance wrench at each 2 ms step, the block's steps
+   in one ``mujoco.rollout`` call (``physics.BlockStepper``);
 3. after the block of physics steps, the wrist wrench is tared, low-passed and rotated to the base
    frame (``force`` observation); the contact sensors' summed force (environment on robot, base frame)
    is low-passed the same way and feeds the protective stop and the contact-force statistics;
@@ -183,7 +184,10 @@ class ForceTaskEnv(gym.Env):
             self._wrench_cols = slice(ix.wrist_force.start, ix.wrist_torque.stop)
         self._contact_cols = ix.contact_columns
         # contact pairs of a held body, and the column saying whether that body touches the robot
-        self._held_pairs = np.array([i for i, b in enumerate(ix.contact_held) if b is not None], dtype=int)
+        held = [i for i, b in enumerate(ix.contact_held) if b is not None]
+        self._held_pairs = np.array(held, dtype=int)
+        if held and held == list(range(held[0], len(ix.contact_held))):  # the last pairs (scene order)
+            self._held_pairs = slice(held[0], None)  # gated in place without a gather
         self._held_found_cols = np.array(
             [ix.held_found[b] for b in ix.contact_held if b is not None], dtype=int
         )
@@ -428,11 +432,16 @@ class ForceTaskEnv(gym.Env):
         ix = self.index
         n = len(buf)
         raw = np.empty((n, 9 + 3 * self._n_fingers))
-        raw[:, :6] = reaction_wrench_base(
-            buf[:, self._wrench_cols], buf[:, ix.ft_quat], self.payload, self.bias_site, self._base_rot_inv
+        reaction_wrench_base(
+            buf[:, self._wrench_cols],
+            buf[:, ix.ft_quat],
+            self.payload,
+            self.bias_site,
+            self._base_rot_inv,
+            out=raw[:, :6],
         )
         pairs = buf[:, self._contact_cols].reshape(n, -1, 3)  # a copy (fancy index): safe to gate in place
-        if len(self._held_pairs):
+        if self._held_found_cols.size:
             # a let-go body resting on the table or peg pushes on them, not on the robot
             pairs[:, self._held_pairs] *= (buf[:, self._held_found_cols] > 0)[:, :, None]
         contact_w = pairs.sum(axis=1)

@@ -53,11 +53,13 @@ def reaction_wrench_base(
     payload: Payload,
     bias_site: np.ndarray,
     base_rot_inv: np.ndarray | None = None,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """Tared reaction wrench in the base frame ``(n, 6)`` from raw sensor rows ``(n, 6)`` (site frame).
 
     ``quat_site (n, 4)``: site orientation in the world; ``bias_site (6,)``: tare in the site frame;
-    ``base_rot_inv (3, 3)``: world-to-base rotation (None: the base frame is the world frame).
+    ``base_rot_inv (3, 3)``: world-to-base rotation (None: the base frame is the world frame); ``out``:
+    an ``(n, 6)`` array to write into.
     """
     rot = quat_to_matrix(quat_site)
     tool_site = (
@@ -65,9 +67,10 @@ def reaction_wrench_base(
     )  # what the tool applies, site frame
     if base_rot_inv is not None:
         rot = base_rot_inv[None] @ rot
-    force = -np.einsum("nij,nj->ni", rot, tool_site[:, :3])
-    torque = -np.einsum("nij,nj->ni", rot, tool_site[:, 3:])
-    return np.concatenate([force, torque], axis=1)
+    out = np.empty((len(rot), 6)) if out is None else out
+    np.negative(np.einsum("nij,nj->ni", rot, tool_site[:, :3]), out=out[:, :3])
+    np.negative(np.einsum("nij,nj->ni", rot, tool_site[:, 3:]), out=out[:, 3:])
+    return out
 
 
 class LowPass:

@@ -391,6 +391,9 @@ class ReferenceStepMixin:
         self.task_impl.frame = self.frame
         self._buf = np.empty((self.n_substeps, self.model.nsensordata))
         ix = self.index
+        self._ref_held_pairs = np.array(
+            [i for i, b in enumerate(ix.contact_held) if b is not None], dtype=int
+        )
         self._ref_wrench_cols = np.r_[
             ix.wrist_force.start : ix.wrist_force.stop, ix.wrist_torque.start : ix.wrist_torque.stop
         ]
@@ -485,8 +488,8 @@ class ReferenceStepMixin:
         )
         n = len(buf)
         pairs = buf[:, self._contact_cols].reshape(n, -1, 3)
-        if len(self._held_pairs):
-            pairs[:, self._held_pairs] *= (buf[:, self._held_found_cols] > 0)[:, :, None]
+        if len(self._ref_held_pairs):
+            pairs[:, self._ref_held_pairs] *= (buf[:, self._held_found_cols] > 0)[:, :, None]
         contact_w = pairs.sum(axis=1)
         contact = self._contact_filter(
             contact_w if self.frame.is_identity else self.frame.vec_to_base(contact_w)
