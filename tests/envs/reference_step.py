@@ -3,14 +3,15 @@
 The env's step runs the physics of a control step in MuJoCo's C loop (``mujoco.rollout``) and does the
 small-vector arithmetic around it in plain floats. This module keeps the straightforward version it
 must agree with: the interpolated target written to the mocap body before each ``mj_step`` and the
-sensor row copied after it, the target clip, interpolation and frame conversions through the
-vectorised quaternion helpers of ``lerobot_forcemap.geometry``, one low-pass filter per signal and
-one statistics object per force. ``tests/envs/test_step_reference.py`` checks that both give the same
-episodes; ``benchmarks/bench_env_step.py`` times both in one run.
+sensor row copied after it, the target clip, interpolation and frame conversions through vectorised
+quaternion helpers (``lerobot_forcemap.geometry``'s, copied here as the step used them), one low-pass
+filter per signal and one statistics object per force, and the task step methods that have changed
+since (erase, peg_in_hole, grasping). ``tests/envs/test_step_reference.py`` checks that both give the
+same episodes; ``benchmarks/bench_env_step.py`` times both in one run.
 
     env = make_reference("press")        # like lerobot_forcemap.envs.make, same kwargs and wrappers
 
-Only the step path differs: the scene, reset, tasks and demonstrators are the env's own.
+Only the step path differs: the scene, reset and demonstrators are the env's own.
 """
 
 from __future__ import annotations
