@@ -46,8 +46,8 @@ def wxyz_to_xyzw(q: ArrayLike) -> NDArray[np.float64]:
 def quat_normalize(q: ArrayLike) -> NDArray[np.float64]:
     """Unit quaternions ``(..., 4)`` of quaternions of norm >= 1e-12."""
     q = np.asarray(q, dtype=float)
-    n = np.linalg.norm(q, axis=-1, keepdims=True)
-    if np.any(n < 1e-12):
+    n = np.sqrt(np.add.reduce(q * q, axis=-1, keepdims=True))  # np.linalg.norm's sum, without its dispatch
+    if np.count_nonzero(n < 1e-12):
         fail("q", "hold quaternions of norm >= 1e-12, got a (near) zero norm", float(np.min(n)))
     return q / n
 
@@ -74,22 +74,38 @@ def quat_multiply(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
     )
 
 
+# Entry k of a row-major rotation matrix is 2 (p + s q) (the diagonal: 1 minus that), with p and q the
+# products _Q2M_PRODUCTS[k] and [9 + k] of quaternion components (index 4 i + j for q_i q_j, w x y z)
+# and s = _Q2M_SIGNS[k] = +-1: the textbook formula's products and sums in its order (x y - w z is
+# x y + (-1)(w z), the same floats).
+_Q2M_PRODUCTS = np.array(
+    [10, 6, 7, 6, 5, 11, 7, 11, 5]  # p: y y, x y, x z | x y, x x, y z | x z, y z, x x
+    + [15, 3, 2, 3, 15, 1, 2, 1, 10]  # q: z z, w z, w y | w z, z z, w x | w y, w x, y y
+)
+_Q2M_SIGNS = np.array([1.0, -1.0, 1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0])
+
+
 def quat_to_matrix(q: ArrayLike) -> NDArray[np.float64]:
     """Rotation matrices ``(..., 3, 3)`` of unit quaternions ``(..., 4)``."""
     q = quat_normalize(q)
-    w, x, y, z = np.moveaxis(q, -1, 0)
-    # filled in place: the envs call this on every control step
-    out = np.empty((*q.shape[:-1], 3, 3))
-    out[..., 0, 0] = 1 - 2 * (y * y + z * z)
-    out[..., 0, 1] = 2 * (x * y - w * z)
-    out[..., 0, 2] = 2 * (x * z + w * y)
-    out[..., 1, 0] = 2 * (x * y + w * z)
-    out[..., 1, 1] = 1 - 2 * (x * x + z * z)
-    out[..., 1, 2] = 2 * (y * z - w * x)
-    out[..., 2, 0] = 2 * (x * z - w * y)
-    out[..., 2, 1] = 2 * (y * z + w * x)
-    out[..., 2, 2] = 1 - 2 * (x * x + y * y)
-    return out
+    if q.ndim == 1:  # one quaternion: float arithmetic, no array calls per entry
+        w, x, y, z = q.tolist()
+        return np.array(
+            [
+                [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+            ]
+        )
+    # a few calls on all entries at once: the envs call this on every control step
+    flat = q.reshape(-1, 4)
+    products = (flat[:, :, None] * flat[:, None, :]).reshape(-1, 16).take(_Q2M_PRODUCTS, axis=1)
+    out = products[:, 9:] * _Q2M_SIGNS
+    out += products[:, :9]
+    out *= 2
+    diag = out[:, ::4]
+    np.subtract(1, diag, out=diag)
+    return out.reshape(*q.shape[:-1], 3, 3)
 
 
 def matrix_to_quat(m: ArrayLike) -> NDArray[np.float64]:

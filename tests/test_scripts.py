@@ -27,6 +27,7 @@ RUNS = {
     ),
     "bench_segmentation": (["--runs", "20"], "target: default segment_streams", "ur5e/three_button_press.h5"),
     "bench_envs": (["--episodes", "1", "--no-render"], "| grasp_flip |", None),
+    "bench_env_step": (["--runs", "1", "--episodes", "1", "--tasks", "press"], "| press | ", None),
     "env_tracking_error": (["--steps", "80"], "| (0.7, -0.3, 0.05) |", None),
     "bench_elmap": (
         ["--repeats", "1", "--baseline-repeats", "1", "--quick"],
@@ -84,6 +85,7 @@ BAD_FLAGS = [
     ("bench_elmap", ["--repeats", "0"], "--repeats: must be an integer >= 1, got 0"),
     ("bench_elmap", ["--baseline-repeats", "0"], "--baseline-repeats: must be an integer >= 1, got 0"),
     ("bench_envs", ["--episodes", "0"], "--episodes: must be an integer >= 1, got 0"),
+    ("bench_env_step", ["--runs", "0"], "--runs: must be an integer >= 1, got 0"),
     ("env_tracking_error", ["--steps", "0"], "--steps: must be an integer >= 1, got 0"),
     ("bench_envs", ["--cores", "-1"], "--cores: must be an integer >= 0 and <= "),
     ("bench_policy_fit", ["--runs", "0"], "--runs: must be an integer >= 1, got 0"),

@@ -7,7 +7,8 @@ One control step (``1 / TaskSpec.control_hz`` s, 20 Hz for every task):
    ``ValueError`` naming the entry), its quaternion normalised, and the target clipped to the task's workspace box and
    speed limit — every clip is reported in ``info`` (``target_clipped``, ``clip_*``);
 2. the target is interpolated per physics step (linear + slerp) and moved along by the impedance
-   controller's mocap body; MuJoCo computes the impedance wrench at each 2 ms step;
+   controller's mocap body; MuJoCo computes the impedance wrench at each 2 ms step, the block's steps
+   in one ``mujoco.rollout`` call (``physics.BlockStepper``);
 3. after the block of physics steps, the wrist wrench is tared, low-passed and rotated to the base
    frame (``force`` observation); the contact sensors' summed force (environment on robot, base frame)
    is low-passed the same way and feeds the protective stop and the contact-force statistics;
@@ -26,6 +27,7 @@ task's metrics. Forces are sampled at physics rate after a first-order low-pass
 
 from __future__ import annotations
 
+import math
 import os
 import warnings
 from typing import Any, ClassVar
@@ -51,9 +53,10 @@ from ..layout import (
     state_names,
 )
 from .control import ClipReport, clip_target, interpolate_targets, set_impedance_damping, solve_ik
+from .physics import BlockStepper
 from .robots import RobotSpec, get_robot
 from .scene import CAMERA, BaseFrame, SceneConfig, build_scene, index_scene
-from .sensing import ForceStats, LowPass, Payload, reaction_wrench_base
+from .sensing import ForceStats, LowPass, Payload, force_norms, reaction_wrench_base
 from .tasks.base import ForceTask, StartState, StepBlock, TaskStatus
 
 OBS_TYPES = ("state", "pixels_state")
@@ -67,6 +70,12 @@ MAX_IMAGE_SIZE = 4096
 #: largest magnitude of an action entry: positions are in metres, so a larger one is no target (and its
 #: clip distance would overflow); such an action is refused like a NaN
 MAX_ACTION_MAGNITUDE = 1e6
+
+
+def _norm(v: np.ndarray) -> float:
+    """``float(np.linalg.norm(v))`` of a 1-D float64 vector (the same BLAS dot and square root)."""
+    return math.sqrt(v.dot(v))
+
 
 #: the process that first made a MuJoCo renderer: a process fork()ed from it inherits a GL state that hangs
 _GL_PID: int | None = None
@@ -120,11 +129,9 @@ class ForceTaskEnv(gym.Env):
         self._set_timing(settle_seconds)
         self._index_sensor_columns()
         self._define_spaces()
-        self._wrench_filter = LowPass(self.force_cutoff_hz, self.timestep, 6)
-        self._contact_filter = LowPass(self.force_cutoff_hz, self.timestep, 3)
-        self._finger_filter = (
-            LowPass(self.force_cutoff_hz, self.timestep, 3 * self._n_fingers) if self._n_fingers else None
-        )
+        # one filter over the block's columns [wrench (6) | contact force (3) | fingertip forces (3 each)]
+        self._force_filter = LowPass(self.force_cutoff_hz, self.timestep, 9 + 3 * self._n_fingers)
+        self._stepper = BlockStepper(self.model, self.data, self.index.mocap, self.n_substeps)
         self._renderers: dict[int, mujoco.Renderer] = {}
         self._episode_started = False
 
@@ -170,15 +177,17 @@ class ForceTaskEnv(gym.Env):
         """sensordata columns and MjData views the step reads (looked up once)."""
         ix = self.index
         self._n_fingers = len(ix.finger_sensors)
-        self._state_size = mujoco.mj_stateSize(self.model, mujoco.mjtState.mjSTATE_INTEGRATION)
-        self._saved_state = np.empty(self._state_size)
-        self._buf = np.empty((self.n_substeps, self.model.nsensordata))
         self._wrench_cols = np.r_[
             ix.wrist_force.start : ix.wrist_force.stop, ix.wrist_torque.start : ix.wrist_torque.stop
         ]
+        if ix.wrist_torque.start == ix.wrist_force.stop:  # adjacent (build_scene adds them so): a view
+            self._wrench_cols = slice(ix.wrist_force.start, ix.wrist_torque.stop)
         self._contact_cols = ix.contact_columns
         # contact pairs of a held body, and the column saying whether that body touches the robot
-        self._held_pairs = np.array([i for i, b in enumerate(ix.contact_held) if b is not None], dtype=int)
+        held = [i for i, b in enumerate(ix.contact_held) if b is not None]
+        self._held_pairs = np.array(held, dtype=int)
+        if held and held == list(range(held[0], len(ix.contact_held))):  # the last pairs (scene order)
+            self._held_pairs = slice(held[0], None)  # gated in place without a gather
         self._held_found_cols = np.array(
             [ix.held_found[b] for b in ix.contact_held if b is not None], dtype=int
         )
@@ -193,6 +202,7 @@ class ForceTaskEnv(gym.Env):
         self._sensordata = self.data.sensordata
         self._base_rot_inv = None if self.frame.is_identity else quat_to_matrix(self.frame.quat).T
         self._tool_ref_quat = np.asarray(self.robot.tool_down_quat, dtype=float)
+        self._tcp_quat = np.empty(4)
 
     def _define_spaces(self) -> None:
         """``state_names`` (the observation layout) and the observation and action spaces."""
@@ -299,17 +309,15 @@ class ForceTaskEnv(gym.Env):
         self._prev_quat = self._align(np.asarray(start.tcp_quat, float))
         self._prev_pos_w = pos_w.copy()
         self._prev_quat_w = quat_w.copy()
-        for f in (self._wrench_filter, self._contact_filter, self._finger_filter):
-            if f is not None:
-                f.reset()
+        self._force_filter.reset()
         self._wrench = np.zeros(6)
         self._contact = np.zeros(3)
         self._finger = np.zeros(3 * self._n_fingers)
-        self.contact_stats = ForceStats()
-        self.contact_stats.reset()
-        self.finger_stats = [ForceStats() for _ in range(self._n_fingers)]
-        for s in self.finger_stats:
-            s.reset()
+        # contact force, then each fingertip
+        self.force_stats = ForceStats(1 + self._n_fingers)
+        t = self.task_impl  # the protective-stop limits of the same signals (inf: none)
+        finger_limit = np.inf if t.finger_force_limit is None else t.finger_force_limit
+        self._force_limits = np.array([t.force_limit] + [finger_limit] * self._n_fingers)
         self._t0 = float(self.data.time)
         self._steps = 0
         self._n_clipped = 0
@@ -336,7 +344,7 @@ class ForceTaskEnv(gym.Env):
     def step(self, action):
         self._check_episode()
         a = self._check_action(action)
-        d, ix, t = self.data, self.index, self.task_impl
+        d, t = self.data, self.task_impl
         pos_b, quat_b, clip = clip_target(
             a[:3], a[3:7], self._prev_pos, self._prev_quat, self.control_dt, t.workspace, t.speed_limit
         )
@@ -347,16 +355,19 @@ class ForceTaskEnv(gym.Env):
             pos_w, quat_w = pos_b, quat_b
         else:
             pos_w, quat_w = self.frame.pos_to_world(pos_b), self.frame.quat_to_world(quat_b)
-        P, Q = interpolate_targets(self._prev_pos_w, self._prev_quat_w, pos_w, quat_w, self.n_substeps)
-        lo, hi = ix.gripper_ctrlrange
-        d.ctrl[ix.gripper_actuator] = lo + grip * (hi - lo)
-        buf = self._simulate(P, Q)
-        wrench, contact, finger, stop_at = self._process_block(buf)
-        n = self.n_substeps if stop_at is None else self._protective_stop_at(stop_at, P, Q)
-        self._commit_filters(wrench[:n], contact[:n], finger[:n] if finger is not None else None)
-        self.contact_stats.update(contact[:n])
-        for k, s in enumerate(self.finger_stats):
-            s.update(finger[:n, 3 * k : 3 * k + 3])
+        stepper = self._stepper
+        interpolate_targets(
+            self._prev_pos_w, self._prev_quat_w, pos_w, quat_w, self.n_substeps,
+            out=(stepper.target_pos, stepper.target_quat),
+        )  # fmt: skip
+        lo, hi = self.index.gripper_ctrlrange
+        d.ctrl[self.index.gripper_actuator] = lo + grip * (hi - lo)
+        buf = stepper.run()
+        forces, norms, stop_at = self._process_block(buf)
+        n = self.n_substeps if stop_at is None else self._protective_stop_at(stop_at)
+        forces = forces[:n]
+        self._commit_filter(forces)
+        self.force_stats.update(forces[:, 6:].reshape(n, -1, 3), norms[:n])
 
         self._prev_pos, self._prev_quat = pos_b, quat_b
         self._prev_pos_w, self._prev_quat_w = pos_w, quat_w
@@ -366,7 +377,10 @@ class ForceTaskEnv(gym.Env):
         if clip.any or clip_gripper:
             self._n_clipped += 1
         block = StepBlock(
-            sensordata=buf[:n], contact_force=contact[:n], wrench=wrench[:n], time=float(d.time) - self._t0
+            sensordata=buf[:n],
+            contact_force=forces[:, 6:9],
+            wrench=forces[:, :6],
+            time=float(d.time) - self._t0,
         )
         self._status = t.update(d, block)
         success = self._status.success and not self._protective_stop
@@ -394,9 +408,8 @@ class ForceTaskEnv(gym.Env):
                 "action",
                 f"have shape ({ACTION_DIM},) = [x y z qw qx qy qz gripper], got shape {np.shape(action)}",
             )
-        bad = ~(np.abs(a) <= MAX_ACTION_MAGNITUDE)  # NaN compares False: refused too
-        if bad.any():
-            i = first_bad_index(bad)[0]
+        if not all(abs(v) <= MAX_ACTION_MAGNITUDE for v in a.tolist()):  # NaN compares False: refused too
+            i = first_bad_index(~(np.abs(a) <= MAX_ACTION_MAGNITUDE))[0]
             fail(
                 f"action[{i}]",
                 f"be a finite number of magnitude <= {MAX_ACTION_MAGNITUDE:g} (step {self._steps})",
@@ -404,82 +417,59 @@ class ForceTaskEnv(gym.Env):
             )
         return a
 
-    def _simulate(self, P: np.ndarray, Q: np.ndarray) -> np.ndarray:
-        """The control step's physics steps along the interpolated targets ``P (n, 3)``, ``Q (n, 4)``;
-        returns their sensordata rows (the state before them is saved for a protective stop)."""
-        m, d = self.model, self.data
-        mujoco.mj_getState(m, d, self._saved_state, mujoco.mjtState.mjSTATE_INTEGRATION)
-        buf, mpos, mquat, sd, mid = (
-            self._buf,
-            self._mocap_pos,
-            self._mocap_quat,
-            self._sensordata,
-            self.index.mocap,
-        )
-        for i in range(self.n_substeps):
-            mpos[mid] = P[i]
-            mquat[mid] = Q[i]
-            mujoco.mj_step(m, d)
-            buf[i] = sd
-        return buf
-
-    def _protective_stop_at(self, stop_at: int, P: np.ndarray, Q: np.ndarray) -> int:
+    def _protective_stop_at(self, stop_at: int) -> int:
         """Rewind and replay the block up to the physics step ``stop_at`` where the limit was crossed (the
         arm halts there, its target at the TCP); returns the number of physics steps that happened."""
-        m, d, mid = self.model, self.data, self.index.mocap
-        mujoco.mj_setState(m, d, self._saved_state, mujoco.mjtState.mjSTATE_INTEGRATION)
-        for i in range(stop_at + 1):
-            self._mocap_pos[mid] = P[i]
-            self._mocap_quat[mid] = Q[i]
-            mujoco.mj_step(m, d)
-        self._mocap_pos[mid] = d.site_xpos[self.index.tcp_site]
+        self._stepper.replay(stop_at + 1)
+        self._mocap_pos[self.index.mocap] = self.data.site_xpos[self.index.tcp_site]
         self._protective_stop = True
         return stop_at + 1
 
-    def _process_block(self, buf: np.ndarray):
-        ix, t = self.index, self.task_impl
-        quat = buf[:, ix.ft_quat]
-        wrench = self._wrench_filter(
-            reaction_wrench_base(
-                buf[:, self._wrench_cols], quat, self.payload, self.bias_site, self._base_rot_inv
-            )
-        )
+    def _process_block(self, buf: np.ndarray) -> tuple[np.ndarray, np.ndarray, int | None]:
+        """Filtered forces of the block ``(n, 9 + 3 n_fingers)``: tared wrist wrench (6), summed contact
+        force (3), fingertip forces (3 each), all base frame; the norms ``(n, 1 + n_fingers)`` of the
+        contact and fingertip forces; the first physics step over a force limit (None: none)."""
+        ix = self.index
         n = len(buf)
+        raw = np.empty((n, 9 + 3 * self._n_fingers))
+        reaction_wrench_base(
+            buf[:, self._wrench_cols],
+            buf[:, ix.ft_quat],
+            self.payload,
+            self.bias_site,
+            self._base_rot_inv,
+            out=raw[:, :6],
+        )
         pairs = buf[:, self._contact_cols].reshape(n, -1, 3)  # a copy (fancy index): safe to gate in place
-        if len(self._held_pairs):
+        if self._held_found_cols.size:
             # a let-go body resting on the table or peg pushes on them, not on the robot
             pairs[:, self._held_pairs] *= (buf[:, self._held_found_cols] > 0)[:, :, None]
         contact_w = pairs.sum(axis=1)
-        contact = self._contact_filter(
-            contact_w if self.frame.is_identity else self.frame.vec_to_base(contact_w)
-        )
-        over = np.linalg.norm(contact, axis=1) > t.force_limit
-        finger = None
+        raw[:, 6:9] = contact_w if self.frame.is_identity else self.frame.vec_to_base(contact_w)
         if self._n_fingers:
-            f_w = self.robot.gripper.finger_sensor_sign * buf[:, self._finger_cols].reshape(n, -1, 3)
-            f_b = f_w if self.frame.is_identity else self.frame.vec_to_base(f_w)
-            finger = self._finger_filter(f_b.reshape(n, -1))
-            if t.finger_force_limit is not None:
-                over |= np.any(
-                    np.linalg.norm(finger.reshape(n, -1, 3), axis=2) > t.finger_force_limit, axis=1
-                )
-        stop_at = int(np.argmax(over)) if over.any() else None
-        return wrench, contact, finger, stop_at
+            f_w = buf.take(self._finger_cols, axis=1) * self.robot.gripper.finger_sensor_sign
+            if self.frame.is_identity:
+                raw[:, 9:] = f_w
+            else:
+                raw[:, 9:] = self.frame.vec_to_base(f_w.reshape(n, -1, 3)).reshape(n, -1)
+        forces = self._force_filter(raw)
+        norms = force_norms(forces[:, 6:].reshape(n, -1, 3))
+        over = norms > self._force_limits
+        stop_at = int(over.any(axis=1).argmax()) if np.count_nonzero(over) else None
+        return forces, norms, stop_at
 
-    def _commit_filters(self, wrench: np.ndarray, contact: np.ndarray, finger: np.ndarray | None) -> None:
-        # The filters ran over the whole block; after a protective stop only its first rows happened.
-        self._wrench = wrench[-1]
-        self._contact = contact[-1]
-        self._wrench_filter.state = wrench[-1].copy()
-        self._contact_filter.state = contact[-1].copy()
-        if finger is not None:
-            self._finger = finger[-1]
-            self._finger_filter.state = finger[-1].copy()
+    def _commit_filter(self, forces: np.ndarray) -> None:
+        # The filter ran over the whole block; after a protective stop only its first rows happened.
+        last = forces[-1]
+        self._force_filter.state = last.copy()
+        self._wrench = last[:6]
+        self._contact = last[6:9]
+        self._finger = last[9:]
 
     # ---- observation and info ----------------------------------------------------------------------------
     def _align(self, q: np.ndarray) -> np.ndarray:
         """Quaternion sign convention of the envs: the hemisphere of the robot's tool-down orientation."""
-        return -q if float(np.dot(q, self._tool_ref_quat)) < 0 else q
+        return -q if q.dot(self._tool_ref_quat) < 0 else q
 
     def tcp_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """Current TCP pose in the base frame (position m, quaternion w x y z in the tool-down hemisphere)."""
@@ -492,11 +482,21 @@ class ForceTaskEnv(gym.Env):
 
     def _observation(self) -> dict[str, Any]:
         d, ix = self.data, self.index
-        closure = self.robot.gripper.opening(d.qpos[ix.gripper_qpos])
-        pos, quat = self.tcp_pose()
+        n_arm = len(ix.arm_qpos)
+        agent_pos = np.empty(n_arm + 1, dtype=np.float32)
+        agent_pos[:n_arm] = d.qpos[ix.arm_qpos]
+        agent_pos[n_arm] = self.robot.gripper.opening(d.qpos[ix.gripper_qpos])
+        ee_pose = np.empty(7, dtype=np.float32)
+        if self.frame.is_identity:  # tcp_pose without its copies
+            q = self._tcp_quat
+            mujoco.mju_mat2Quat(q, d.site_xmat[ix.tcp_site])
+            ee_pose[:3] = d.site_xpos[ix.tcp_site]
+            ee_pose[3:] = -q if q.dot(self._tool_ref_quat) < 0 else q
+        else:
+            ee_pose[:3], ee_pose[3:] = self.tcp_pose()
         obs: dict[str, Any] = {
-            ENV_AGENT_POS: np.concatenate([d.qpos[ix.arm_qpos], [closure]]).astype(np.float32),
-            ENV_EE_POSE: np.concatenate([pos, quat]).astype(np.float32),
+            ENV_AGENT_POS: agent_pos,
+            ENV_EE_POSE: ee_pose,
             ENV_FORCE: self._wrench.astype(np.float32),
             ENV_STATE: np.asarray(self.task_impl.environment_state(d), dtype=np.float32),
         }
@@ -507,17 +507,18 @@ class ForceTaskEnv(gym.Env):
         return obs
 
     def _info(self) -> dict[str, Any]:
-        st, clip, cs = self._status, self._last_clip, self.contact_stats
+        st, clip, fs = self._status, self._last_clip, self.force_stats
+        max_norm, mean_norm, mean_abs = fs.max_norm, fs.mean_norm, fs.mean_abs
         success = bool(st.success and not self._protective_stop)
         reason = "protective_stop" if self._protective_stop else ("success" if success else st.failure_reason)
         info: dict[str, Any] = {
             "is_success": success,
             "protective_stop": self._protective_stop,
             "termination_reason": reason,
-            "max_contact_force": cs.max_norm,
-            "mean_contact_force": cs.mean_norm,
-            "max_contact_force_xyz": cs.max_abs.copy(),
-            "mean_contact_force_xyz": cs.mean_abs.copy(),
+            "max_contact_force": float(max_norm[0]),
+            "mean_contact_force": float(mean_norm[0]),
+            "max_contact_force_xyz": fs.max_abs[0].copy(),
+            "mean_contact_force_xyz": mean_abs[0],
             "contact_force": self._contact.copy(),
             "force_limit": float(self.task_impl.force_limit),
             "target_clipped": bool(clip.any or self._clip_gripper),
@@ -530,14 +531,14 @@ class ForceTaskEnv(gym.Env):
             "n_clipped_steps": self._n_clipped,
             # TCP to its (interpolated) target after the step, m: F/K in contact by design; in free space
             # the arm's own error (the Gen3's posture springs, a target beyond reach), which no clip flags
-            "tracking_error": float(
-                np.linalg.norm(self.data.site_xpos[self.index.tcp_site] - self._mocap_pos[self.index.mocap])
+            "tracking_error": _norm(
+                self.data.site_xpos[self.index.tcp_site] - self._mocap_pos[self.index.mocap]
             ),
             "elapsed_s": self._steps * self.control_dt,
         }
         if self._n_fingers:
-            info["max_finger_force"] = np.array([s.max_norm for s in self.finger_stats])
-            info["mean_finger_force"] = np.array([s.mean_norm for s in self.finger_stats])
+            info["max_finger_force"] = max_norm[1:]
+            info["mean_finger_force"] = mean_norm[1:]
         info.update(self.task_impl.episode_metrics())
         return info
 

@@ -17,12 +17,14 @@ places the arm; constant during the episode).
 
 from __future__ import annotations
 
+import functools
+import math
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
-from ..geometry import quat_conjugate, quat_multiply, quat_normalize, quat_to_rotvec, rotvec_to_quat, slerp
+from ..geometry import quat_conjugate, quat_multiply, quat_normalize, quat_to_rotvec
 from .robots.base import ImpedanceGains
 
 AXES = ("x", "y", "z", "rx", "ry", "rz")
@@ -108,6 +110,14 @@ class Workspace:
     def clip(self, pos: np.ndarray) -> np.ndarray:
         return np.clip(pos, self.low, self.high)
 
+    def clip_floats(self, x: float, y: float, z: float) -> tuple[float, float, float]:
+        """:meth:`clip` of one position as floats (NumPy's clip: ``min(max(v, low), high)``, bounds on ties)."""
+        out = []
+        for v, lo, hi in zip((x, y, z), self.low, self.high, strict=True):
+            v = v if v > lo else lo
+            out.append(float(v if v < hi else hi))
+        return out[0], out[1], out[2]
+
 
 @dataclass(frozen=True)
 class SpeedLimit:
@@ -143,51 +153,160 @@ def clip_target(
 ) -> tuple[np.ndarray, np.ndarray, ClipReport]:
     """Clip a requested target to the workspace box and to the speed limit from the previous target.
 
+    ``pos (3,)``, ``quat (4,)`` float64; ``prev_pos``, ``prev_quat`` the previous (accepted) target.
     ``quat`` is normalised and put in the hemisphere of ``prev_quat``; a (near) zero quaternion keeps the
-    previous orientation and is reported as ``orientation_invalid``.
+    previous orientation and is reported as ``orientation_invalid``. Returns the accepted position and
+    quaternion (new arrays) and the report.
     """
     report = ClipReport()
     req_pos = np.asarray(pos, dtype=float)
     q = np.asarray(quat, dtype=float)
-    n = float(np.linalg.norm(q))
-    if not np.isfinite(n) or n < 1e-6:
+    prev_quat = np.asarray(prev_quat, dtype=float)
+    n = math.sqrt(q.dot(q))
+    if not math.isfinite(n) or n < 1e-6:
         q = prev_quat.copy()
         report.orientation_invalid = True
     else:
         q = q / n
-    if np.dot(q, prev_quat) < 0:
+    if q.dot(prev_quat) < 0:
         q = -q
     req_quat = q
-    p = workspace.clip(req_pos)
-    report.workspace = bool(np.any(p != req_pos))
+    x, y, z = req_pos.tolist()
+    cx, cy, cz = workspace.clip_floats(x, y, z)
+    report.workspace = cx != x or cy != y or cz != z
+    p = np.array([cx, cy, cz])
     step = p - prev_pos
-    dist = float(np.linalg.norm(step))
+    dist = math.sqrt(step.dot(step))
     max_dist = speed.linear * dt
     if dist > max_dist:
         p = prev_pos + step * (max_dist / dist)
         report.speed = True
-    rel = quat_to_rotvec(quat_multiply(q, quat_conjugate(prev_quat)))
-    angle = float(np.linalg.norm(rel))
+    rel, angle = _rotation_between(q.tobytes() + prev_quat.tobytes())
     max_angle = speed.angular * dt
     if angle > max_angle:
-        q = quat_normalize(quat_multiply(rotvec_to_quat(rel * (max_angle / angle)), prev_quat))
+        r = (rel * (max_angle / angle)).tolist()
+        q = np.array(_qnormalize(_qmul(_quat_of_rotvec(r), prev_quat.tolist())))
         report.speed = True
-    report.clipped_distance = float(np.linalg.norm(p - req_pos))
-    report.clipped_angle = float(np.linalg.norm(quat_to_rotvec(quat_multiply(req_quat, quat_conjugate(q)))))
+    off = p - req_pos
+    report.clipped_distance = math.sqrt(off.dot(off))
+    report.clipped_angle = _rotation_between(req_quat.tobytes() + q.tobytes())[1]
     return p, q, report
 
 
 def interpolate_targets(
-    p0: np.ndarray, q0: np.ndarray, p1: np.ndarray, q1: np.ndarray, n: int
+    p0: np.ndarray,
+    q0: np.ndarray,
+    p1: np.ndarray,
+    q1: np.ndarray,
+    n: int,
+    out: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Targets for the ``n`` physics steps of one control step: linear in position, slerp in orientation.
 
-    Returns positions (n, 3) and quaternions (n, 4) at fractions 1/n .. 1 (the last equals the new target).
+    Returns positions (n, 3) and quaternions (n, 4) at fractions 1/n .. 1 (the last equals the new target),
+    written into ``out`` when given (e.g. views of a rollout's input rows); the slerp takes the short arc
+    and falls back to normalised linear interpolation for nearly equal quaternions (as ``geometry.slerp``).
     """
-    t = np.arange(1, n + 1, dtype=float) / n
-    pos = p0[None, :] + t[:, None] * (p1 - p0)[None, :]
-    quat = slerp(q0[None, :], q1[None, :], t)
+    t, t_col, _ = _fractions(n)
+    pos, quat = (np.empty((n, 3)), np.empty((n, 4))) if out is None else out
+    np.multiply(t_col, p1 - p0, out=pos)
+    np.add(p0, pos, out=pos)
+    np.copyto(quat, _slerp_rows(np.asarray(q0, float).tobytes() + np.asarray(q1, float).tobytes(), n))
     return pos, quat
+
+
+# Pure functions of float64 bit patterns (bytes keys: -0.0 and 0.0 stay apart), memoised: a policy that
+# holds its orientation asks for the same ones every control step.
+
+
+@functools.lru_cache(maxsize=16)
+def _slerp_rows(q0q1: bytes, n: int) -> np.ndarray:
+    """The slerp part of :func:`interpolate_targets`: ``(n, 4)`` (read-only) from ``q0`` and ``q1``."""
+    q = np.frombuffer(q0q1)
+    t, t_col, one_minus_t_col = _fractions(n)
+    a = _qnormalize(q[:4].tolist())
+    b = _qnormalize(q[4:].tolist())
+    dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+    if dot < 0:
+        b = (-b[0], -b[1], -b[2], -b[3])
+    theta = float(np.arccos(min(abs(dot), 1.0)))
+    sin_theta = float(np.sin(theta))
+    if sin_theta < 1e-8:
+        w0, w1 = one_minus_t_col, t_col
+    else:
+        w0 = (np.sin((1.0 - t) * theta) / sin_theta)[:, None]
+        w1 = (np.sin(t * theta) / sin_theta)[:, None]
+    quat = w0 * np.array(a) + w1 * np.array(b)
+    quat /= np.sqrt(np.add.reduce(quat * quat, axis=-1, keepdims=True))
+    quat.flags.writeable = False
+    return quat
+
+
+@functools.lru_cache(maxsize=16)
+def _rotation_between(ab: bytes) -> tuple[np.ndarray, float]:
+    """The rotation vector (read-only) of ``a ⊗ conj(b)`` and its angle (rad) from quaternions ``a``, ``b``."""
+    q = np.frombuffer(ab).tolist()
+    rel = np.array(_rotvec(_qmul(q[:4], _qconj(q[4:]))))
+    rel.flags.writeable = False
+    return rel, math.sqrt(rel.dot(rel))
+
+
+@functools.cache
+def _fractions(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``t = (1 .. n) / n``, ``t`` as a column and ``1 - t`` as a column (read-only)."""
+    t = np.arange(1, n + 1, dtype=float) / n
+    out = (t, t[:, None].copy(), (1.0 - t)[:, None])
+    for a in out:
+        a.flags.writeable = False
+    return out
+
+
+# Quaternion helpers on one quaternion as a float 4-tuple (w, x, y, z): the arithmetic of the
+# vectorised ``geometry`` functions, operation for operation (the same floats), without array overhead.
+
+
+def _qmul(a, b) -> tuple[float, float, float, float]:
+    """``geometry.quat_multiply``."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (
+        aw * bw - ax * bx - ay * by - az * bz,
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+    )
+
+
+def _qconj(q) -> tuple[float, float, float, float]:
+    return (q[0], -q[1], -q[2], -q[3])
+
+
+def _qnormalize(q) -> tuple[float, float, float, float]:
+    """``geometry.quat_normalize`` (the same error for a (near) zero quaternion)."""
+    w, x, y, z = q
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    if n < 1e-12:
+        quat_normalize(np.array(q, dtype=float))  # raises the ValueError
+    return (w / n, x / n, y / n, z / n)
+
+
+def _rotvec(q) -> tuple[float, float, float]:
+    """``geometry.quat_to_rotvec``."""
+    w, x, y, z = _qnormalize(q)
+    if w < 0:
+        w, x, y, z = -w, -x, -y, -z
+    s = math.sqrt(x * x + y * y + z * z)
+    scale = 2.0 * float(np.arctan2(s, w)) / s if s > 1e-12 else 2.0
+    return (x * scale, y * scale, z * scale)
+
+
+def _quat_of_rotvec(r) -> tuple[float, float, float, float]:
+    """``geometry.rotvec_to_quat``."""
+    x, y, z = r
+    angle = math.sqrt(x * x + y * y + z * z)
+    half = 0.5 * angle
+    scale = float(np.sin(half)) / angle if angle > 1e-12 else 0.5
+    return (float(np.cos(half)), x * scale, y * scale, z * scale)
 
 
 # ---- offline inverse kinematics ---------------------------------------------------------------------

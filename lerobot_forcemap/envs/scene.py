@@ -11,6 +11,7 @@ World frame: the table top is the plane z = 0; the robot base frame is placed by
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -46,7 +47,11 @@ class SceneConfig:
 
 @dataclass(frozen=True)
 class BaseFrame:
-    """The robot base frame in the world: converts poses between world and base (action) frames."""
+    """The robot base frame in the world: converts poses between world and base (action) frames.
+
+    Every conversion returns a new float64 array; at the identity (the default scene: position 0,
+    quaternion (1, 0, 0, 0)) it is a copy of its input.
+    """
 
     pos: np.ndarray
     quat: np.ndarray  # w x y z
@@ -55,23 +60,39 @@ class BaseFrame:
     def from_config(cls, config: SceneConfig) -> BaseFrame:
         return cls(np.asarray(config.robot_base_pos, float), np.asarray(config.robot_base_quat, float))
 
-    @property
+    @functools.cached_property
     def is_identity(self) -> bool:
+        """No translation and no rotation (a quaternion of either sign)."""
         return bool(np.all(self.pos == 0) and abs(self.quat[0]) == 1.0)
 
+    @functools.cached_property
+    def _copies(self) -> bool:
+        # (-1, 0, 0, 0) is the identity rotation too, but products with it flip a quaternion's sign
+        return self.is_identity and self.quat[0] == 1.0
+
     def pos_to_world(self, p: np.ndarray) -> np.ndarray:
+        if self._copies:
+            return np.array(p, dtype=float)
         return self.pos + quat_rotate(self.quat, p)
 
     def quat_to_world(self, q: np.ndarray) -> np.ndarray:
+        if self._copies:
+            return np.array(q, dtype=float)
         return quat_multiply(self.quat, q)
 
     def pos_to_base(self, p: np.ndarray) -> np.ndarray:
+        if self._copies:
+            return np.array(p, dtype=float)
         return quat_rotate(quat_conjugate(self.quat), np.asarray(p, float) - self.pos)
 
     def quat_to_base(self, q: np.ndarray) -> np.ndarray:
+        if self._copies:
+            return np.array(q, dtype=float)
         return quat_multiply(quat_conjugate(self.quat), q)
 
     def vec_to_base(self, v: np.ndarray) -> np.ndarray:
+        if self._copies:
+            return np.array(v, dtype=float)
         return quat_rotate(quat_conjugate(self.quat), v)
 
 

@@ -31,6 +31,9 @@ class Payload:
     mass: float
     com_site: np.ndarray  # (3,)
 
+    def __post_init__(self):
+        self._cross_com_t = _skew(self.com_site).T  # f @ this = c x f, row-wise
+
     def expected_wrench(self, quat_site: np.ndarray) -> np.ndarray:
         """Sensor reading ``(n, 6)`` (site frame) of the payload at rest for site orientations ``(n, 4)``.
 
@@ -40,7 +43,7 @@ class Payload:
 
     def expected_wrench_from_mat(self, rot: np.ndarray) -> np.ndarray:
         f_site = self.mass * GRAVITY * rot[:, 2, :]  # R^T (0, 0, m g): the third row of R
-        t_site = f_site @ _skew(self.com_site).T  # c x f
+        t_site = f_site @ self._cross_com_t  # c x f
         return np.concatenate([f_site, t_site], axis=1)
 
 
@@ -50,11 +53,13 @@ def reaction_wrench_base(
     payload: Payload,
     bias_site: np.ndarray,
     base_rot_inv: np.ndarray | None = None,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """Tared reaction wrench in the base frame ``(n, 6)`` from raw sensor rows ``(n, 6)`` (site frame).
 
     ``quat_site (n, 4)``: site orientation in the world; ``bias_site (6,)``: tare in the site frame;
-    ``base_rot_inv (3, 3)``: world-to-base rotation (None: the base frame is the world frame).
+    ``base_rot_inv (3, 3)``: world-to-base rotation (None: the base frame is the world frame); ``out``:
+    an ``(n, 6)`` array to write into.
     """
     rot = quat_to_matrix(quat_site)
     tool_site = (
@@ -62,23 +67,30 @@ def reaction_wrench_base(
     )  # what the tool applies, site frame
     if base_rot_inv is not None:
         rot = base_rot_inv[None] @ rot
-    force = -np.einsum("nij,nj->ni", rot, tool_site[:, :3])
-    torque = -np.einsum("nij,nj->ni", rot, tool_site[:, 3:])
-    return np.concatenate([force, torque], axis=1)
+    out = np.empty((len(rot), 6)) if out is None else out
+    np.negative(np.einsum("nij,nj->ni", rot, tool_site[:, :3]), out=out[:, :3])
+    np.negative(np.einsum("nij,nj->ni", rot, tool_site[:, 3:]), out=out[:, 3:])
+    return out
 
 
 class LowPass:
     """First-order low-pass (exponential smoothing) with state, applied to blocks of samples.
 
     ``y_k = y_{k-1} + a (x_k - y_{k-1})`` with ``a = 1 - exp(-2 pi f_c dt)``; one scipy ``lfilter`` call
-    per block (no Python loop over samples).
+    per block (no Python loop over samples), each column on its own.
     """
 
     def __init__(self, cutoff_hz: float, dt: float, dim: int):
         """``cutoff_hz`` > 0 and ``dt`` > 0 (s): checked by the env that makes the filter."""
-        from scipy.signal import lfilter  # imported with the first env, not with the package
+        # imported with the first env, not with the package
+        try:  # lfilter's own C routine: lfilter minus its array-API dispatch, which costs more per block
+            from scipy.signal._sigtools import _linear_filter
 
-        self._lfilter = lfilter
+            self._lfilter = _linear_filter
+        except ImportError:  # pragma: no cover - a SciPy that moved it
+            from scipy.signal import lfilter
+
+            self._lfilter = lambda b, a, x, axis, zi: lfilter(b, a, x, axis=axis, zi=zi)
         self.alpha = 1.0 - float(np.exp(-2.0 * np.pi * cutoff_hz * dt))
         self._b = np.array([self.alpha])
         self._a = np.array([1.0, self.alpha - 1.0])
@@ -91,42 +103,53 @@ class LowPass:
     def __call__(self, block: np.ndarray) -> np.ndarray:
         """Filter ``block (n, dim)``; returns ``(n, dim)`` and advances the state."""
         zi = ((1.0 - self.alpha) * self.state)[None, :]
-        out, _ = self._lfilter(self._b, self._a, block, axis=0, zi=zi)
+        out, _ = self._lfilter(self._b, self._a, block, 0, zi)
         self.state = out[-1].copy()
         return out
 
 
-@dataclass
-class ForceStats:
-    """Running max / mean of a force signal ``(n, 3)`` (base frame): norm and per-axis absolute values."""
+def force_norms(force: np.ndarray) -> np.ndarray:
+    """Euclidean norms ``(...)`` of 3-vectors ``(..., 3)`` (the sums and roots of ``np.linalg.norm``)."""
+    return np.sqrt(np.add.reduce(force * force, axis=-1))
 
-    max_norm: float = 0.0
-    sum_norm: float = 0.0
-    max_abs: np.ndarray | None = None
-    sum_abs: np.ndarray | None = None
-    count: int = 0
+
+class ForceStats:
+    """Running max / mean of ``n_signals`` force signals (base frame): norm and per-axis absolute values.
+
+    :meth:`update` takes a block ``(n, n_signals, 3)``; ``max_norm``, ``mean_norm`` are ``(n_signals,)``,
+    ``max_abs``, ``mean_abs`` ``(n_signals, 3)``, all 0 before the first sample.
+    """
+
+    def __init__(self, n_signals: int = 1):
+        self.n_signals = n_signals
+        self.reset()
 
     def reset(self) -> None:
-        self.max_norm = self.sum_norm = 0.0
-        self.max_abs = np.zeros(3)
-        self.sum_abs = np.zeros(3)
+        m = self.n_signals
+        self.max_norm = np.zeros(m)
+        self.sum_norm = np.zeros(m)
+        self.max_abs = np.zeros((m, 3))
+        self.sum_abs = np.zeros((m, 3))
         self.count = 0
 
-    def update(self, force: np.ndarray) -> None:
+    def update(self, force: np.ndarray, norm: np.ndarray | None = None) -> None:
+        """Add the samples ``force (n, n_signals, 3)``; ``norm``: their :func:`force_norms` if known."""
         if len(force) == 0:
             return
-        norm = np.linalg.norm(force, axis=1)
+        if norm is None:
+            norm = force_norms(force)
         absf = np.abs(force)
-        self.max_norm = max(self.max_norm, float(norm.max()))
-        self.sum_norm += float(norm.sum())
+        self.max_norm = np.maximum(self.max_norm, norm.max(axis=0))
+        # each signal's sum over its own contiguous row: NumPy's pairwise sum, as for one signal alone
+        self.sum_norm = self.sum_norm + np.ascontiguousarray(norm.T).sum(axis=1)
         self.max_abs = np.maximum(self.max_abs, absf.max(axis=0))
         self.sum_abs = self.sum_abs + absf.sum(axis=0)
         self.count += len(force)
 
     @property
-    def mean_norm(self) -> float:
-        return self.sum_norm / self.count if self.count else 0.0
+    def mean_norm(self) -> np.ndarray:
+        return self.sum_norm / self.count if self.count else np.zeros(self.n_signals)
 
     @property
     def mean_abs(self) -> np.ndarray:
-        return self.sum_abs / self.count if self.count else np.zeros(3)
+        return self.sum_abs / self.count if self.count else np.zeros((self.n_signals, 3))

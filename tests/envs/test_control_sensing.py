@@ -79,16 +79,17 @@ def test_payload_wrench_at_any_orientation():
 
 def test_force_stats():
     rng = np.random.default_rng(2)
-    a, b = rng.normal(size=(30, 3)), rng.normal(size=(20, 3))
-    s = ForceStats()
-    s.reset()
+    a, b = rng.normal(size=(30, 3, 3)), rng.normal(size=(20, 3, 3))  # 3 signals
+    s = ForceStats(3)
+    np.testing.assert_array_equal(s.mean_norm, 0.0)
     s.update(a)
     s.update(b)
-    allf = np.vstack([a, b])
-    assert s.max_norm == pytest.approx(np.linalg.norm(allf, axis=1).max())
-    assert s.mean_norm == pytest.approx(np.linalg.norm(allf, axis=1).mean())
-    np.testing.assert_allclose(s.max_abs, np.abs(allf).max(axis=0))
-    np.testing.assert_allclose(s.mean_abs, np.abs(allf).mean(axis=0))
+    for k in range(3):
+        allf = np.vstack([a[:, k], b[:, k]])
+        assert s.max_norm[k] == pytest.approx(np.linalg.norm(allf, axis=1).max())
+        assert s.mean_norm[k] == pytest.approx(np.linalg.norm(allf, axis=1).mean())
+        np.testing.assert_allclose(s.max_abs[k], np.abs(allf).max(axis=0))
+        np.testing.assert_allclose(s.mean_abs[k], np.abs(allf).mean(axis=0))
 
 
 def test_impedance_static_stiffness_law():

@@ -92,6 +92,14 @@ class FTSensorSpec:
     length: float = 0.0375
 
 
+def clip_unit(v: float) -> float:
+    """``np.clip(v, 0.0, 1.0)`` of one float, as a float (NumPy's clip: the max with 0, then the min
+    with 1, a bound on ties, NaN kept); the grippers' openings use it for a single configuration, where
+    ``np.clip`` on a scalar costs far more than the rest of the opening."""
+    v = v if (v != v or v > 0.0) else 0.0
+    return v if (v != v or v < 1.0) else 1.0
+
+
 @dataclass(frozen=True)
 class GripperSpec:
     """A gripper: builder plus the mapping between command/joint positions and the 0..1 opening."""

@@ -18,6 +18,7 @@ from .base import (
     ROBOT_RGBA,
     GripperSpec,
     ToolBuilder,
+    clip_unit,
 )
 
 OPEN_HALF_WIDTH = 0.0425  # m, pad face to centre when open
@@ -111,6 +112,9 @@ def _add_finger(base: mujoco.MjsBody, side: str, sign: float) -> None:
 def parallel_gripper_opening(qpos: np.ndarray) -> np.ndarray:
     """Closure 0 (open) .. 1 (closed) from the two finger slides ``(..., 2)`` (their mean)."""
     q = np.asarray(qpos, dtype=float)
+    if q.shape == (2,):  # one configuration (the env's every step): the same arithmetic in floats
+        left, right = q.tolist()
+        return clip_unit((left + right) / 2 / STROKE)
     return np.clip(q.mean(axis=-1) / STROKE, 0.0, 1.0)
 
 

@@ -35,7 +35,7 @@ import mujoco
 import numpy as np
 
 from ...geometry import quat_multiply
-from .base import DARK_RGBA, ROBOT_CONAFFINITY, ROBOT_CONTYPE, ROBOT_RGBA, GripperSpec, ToolBuilder
+from .base import DARK_RGBA, ROBOT_CONAFFINITY, ROBOT_CONTYPE, ROBOT_RGBA, GripperSpec, ToolBuilder, clip_unit
 
 PALM_RADIUS = 0.045
 PALM_LENGTH = 0.06  # m, mounting face to finger roots
@@ -48,6 +48,7 @@ SPLAY = math.radians(20.0)  # open: fingers tilted outward
 DISTAL_RATIO = 0.7  # distal angle / proximal angle
 Q_MAX = 0.6  # rad, proximal closing range (pads cross the axis: small objects are reachable)
 TENDON_COEF = (0.5, 0.25, 0.25)  # thumb, finger 1, finger 2
+_TENDON_COEF = np.array(TENDON_COEF)
 TENDON_TARGET_MAX = 1.8  # rad of tendon length at command 1 (0.33: the closed stop of a free hand)
 TENDON_KP = 8.0  # N·m/rad
 TENDON_KV = 0.5  # N·m·s/rad
@@ -157,7 +158,9 @@ def three_finger_opening(qpos: np.ndarray) -> np.ndarray:
     The tendon length (weighted proximal angles) over its closed-stop value.
     """
     q = np.asarray(qpos, dtype=float)
-    return np.clip(q[..., :3] @ np.asarray(TENDON_COEF) / Q_MAX, 0.0, 1.0)
+    if q.ndim == 1:  # one configuration (the env's every step): the same arithmetic, a float clip
+        return clip_unit(float(q[:3] @ _TENDON_COEF) / Q_MAX)
+    return np.clip(q[..., :3] @ _TENDON_COEF / Q_MAX, 0.0, 1.0)
 
 
 def three_finger_closure_qpos(closure: float) -> np.ndarray:

@@ -59,6 +59,10 @@ START_RANDOM = 0.005
 ERASER_BODY_Z = PALM_LENGTH + 0.02  # eraser body origin in the gripper frame
 PAD_CENTER_Z = 0.06  # pad centre below the eraser body origin (along the tool axis)
 TCP_Z = ERASER_BODY_Z + PAD_CENTER_Z + PAD_HALF[2]  # felt face at rest, gripper frame
+# a dot under the pad (|x|, |y| within PAD_HALF, |z| < UNDER_DEPTH in the felt frame) is closer to the
+# felt centre than this, with room to spare (m)
+UNDER_DEPTH = 0.01
+UNDER_REACH = 0.05
 INK_RGBA = np.array([0.1, 0.15, 0.6, 1.0])
 ERASED_RGBA = np.array([0.93, 0.93, 0.95, 1.0])
 GRIPPER_CLOSURE = 0.6  # fingers close on the eraser handle
@@ -220,7 +224,8 @@ class EraseTask(ForceTask):
 
     @property
     def coverage(self) -> float:
-        return float(self.erased.mean())
+        """Share of the ink dots erased (the mean of ``erased``, as one count)."""
+        return np.count_nonzero(self.erased) / N_INK
 
     def environment_state(self, data) -> np.ndarray:
         pos, quat = self.board_pose_world()
@@ -232,21 +237,7 @@ class EraseTask(ForceTask):
         self.felt_force = float(normal[-1])
         pressing = normal > ERASE_FORCE
         if pressing.any():
-            rows = sd[pressing]
-            felt_pos = rows[:, self._felt_pos]
-            rot = quat_to_matrix(rows[:, self._felt_quat])
-            # ink in each felt frame: R^T (ink - p), shapes (k, N_INK, 3)
-            rel = self._ink_world[None, :, :] - felt_pos[:, None, :]
-            local = np.einsum("kji,knj->kni", rot, rel)
-            under = (
-                (np.abs(local[..., 0]) <= PAD_HALF[0])
-                & (np.abs(local[..., 1]) <= PAD_HALF[1])
-                & (np.abs(local[..., 2]) < 0.01)
-            )
-            newly = under.any(axis=0) & ~self.erased
-            if newly.any():
-                self.erased |= newly
-                self.model.geom_rgba[self._ink_geoms[newly]] = ERASED_RGBA
+            self._erase_under(sd[pressing])
         if self.coverage >= SUCCESS_COVERAGE:
             self.reached_coverage = True
         if self.reached_coverage:
@@ -258,6 +249,32 @@ class EraseTask(ForceTask):
             success=self.reached_coverage and self.lifted,
             failure_reason="" if self.reached_coverage else "not_erased",
         )
+
+    def _erase_under(self, rows: np.ndarray) -> None:
+        """Mark the ink dots under the felt in any of the sensor ``rows`` (physics steps) as erased."""
+        felt_pos = rows[:, self._felt_pos]
+        # only dots still inked within reach of the felt's path (per axis): the others cannot be under it
+        near = ~self.erased & np.all(
+            (self._ink_world >= felt_pos.min(axis=0) - UNDER_REACH)
+            & (self._ink_world <= felt_pos.max(axis=0) + UNDER_REACH),
+            axis=1,
+        )
+        candidates = np.flatnonzero(near)
+        if len(candidates) == 0:
+            return
+        rot = quat_to_matrix(rows[:, self._felt_quat])
+        # those dots in each felt frame: R^T (ink - p), shapes (k, n, 3)
+        rel = self._ink_world[candidates][None, :, :] - felt_pos[:, None, :]
+        local = np.einsum("kji,knj->kni", rot, rel)
+        under = (
+            (np.abs(local[..., 0]) <= PAD_HALF[0])
+            & (np.abs(local[..., 1]) <= PAD_HALF[1])
+            & (np.abs(local[..., 2]) < UNDER_DEPTH)
+        )
+        newly = candidates[under.any(axis=0)]
+        if len(newly):
+            self.erased[newly] = True
+            self.model.geom_rgba[self._ink_geoms[newly]] = ERASED_RGBA
 
     def episode_metrics(self) -> dict[str, float]:
         return {"coverage": self.coverage, "felt_force": self.felt_force}

@@ -16,6 +16,7 @@ environment_state: peg pose (top centre, base frame), disc pose (centre), insert
 
 from __future__ import annotations
 
+import math
 from typing import ClassVar
 
 import mujoco
@@ -215,12 +216,14 @@ class PegInHoleTask(ForceTask):
         sd = block.sensordata
         top = self.peg_top_world()
         disc = sd[-1, self._disc_pos]
-        self.lateral = float(np.linalg.norm(disc[:2] - top[:2]))
+        off = disc[:2] - top[:2]
+        self.lateral = math.sqrt(off.dot(off))  # np.linalg.norm of a vector: the same dot and root
         bottom = disc[2] - RING_HALF_THICK
         self.depth = float(max(0.0, top[2] - bottom)) if self.lateral <= RING_INNER else 0.0
-        free = sd[:, self._disc_found] == 0
-        n_free_tail = len(free) - int(np.max(np.nonzero(~free)[0], initial=-1)) - 1
-        if n_free_tail == len(free):
+        found = sd[:, self._disc_found].tolist()  # per physics step: the disc touches the robot
+        last_held = max((i for i, v in enumerate(found) if v != 0), default=-1)
+        n_free_tail = len(found) - last_held - 1
+        if n_free_tail == len(found):
             self.released_time += len(sd) * self.model.opt.timestep
         else:
             self.released_time = n_free_tail * self.model.opt.timestep
