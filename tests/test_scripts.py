@@ -20,6 +20,7 @@ from tests.conftest import REPO_ROOT
 #: script -> (arguments, a line fragment its output must hold, the real recording it reads or None)
 RUNS = {
     "bench_policy_fit": (["--runs", "1", "--no-train"], "one-shot total", None),
+    "bench_fit_e2e": (["--runs", "1", "--episodes", "1", "--datasets", "datasets/press"], "| press | ", None),
     "bench_clarabel_polish": (
         ["--repeats", "1", "--episodes", "1"],
         "| demo at rest, box 1 cm above | 1 |",
@@ -90,6 +91,9 @@ BAD_FLAGS = [
     ("bench_envs", ["--cores", "-1"], "--cores: must be an integer >= 0 and <= "),
     ("bench_policy_fit", ["--runs", "0"], "--runs: must be an integer >= 1, got 0"),
     ("bench_policy_fit", ["--dataset", "{tmp}"], "not a LeRobot dataset"),
+    ("bench_fit_e2e", ["--runs", "0"], "--runs: must be an integer >= 1, got 0"),
+    ("bench_fit_e2e", ["--baseline", "{tmp}"], "not a checkout of the project"),
+    ("bench_fit_e2e", ["--datasets", "{tmp}"], "not a LeRobot dataset"),
     ("bench_segmentation", ["--runs", "0"], "--runs: must be an integer >= 1, got 0"),
     ("bench_segmentation", ["--data", "{tmp}/gbti_like.h5"], "not a UR5e recorder file"),
     ("elmap_realdata", ["--n-nodes", "1"], "--n-nodes: must be an integer >= 2, got 1"),

@@ -16,6 +16,7 @@ to train), and adds ``fit_report.json`` (segments, anchors, EM diagnostics).
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import re
 import time
@@ -69,7 +70,7 @@ def make_config(episodes: Sequence[int] | None = None, overrides: Sequence[str] 
     level = config_log.level
     config_log.setLevel(logging.CRITICAL)
     try:
-        return draccus.parse(ForceMapConfig, args=args)
+        return _config_parser().parse_args(args)
     except draccus.utils.DraccusException as err:
         cause = err.__cause__ or err.__context__
         # our check names "ForceMapConfig.<field>:" (its text is the whole story), draccus' type errors "`<field>`:"
@@ -83,6 +84,19 @@ def make_config(episodes: Sequence[int] | None = None, overrides: Sequence[str] 
         raise ValueError(f"{flag}: {detail}") from err
     finally:
         config_log.setLevel(level)
+
+
+@functools.cache
+def _config_parser():
+    """draccus' parser of ``ForceMapConfig``, built once: building it reads every field's help text from
+    the class source (tens of ms, more than a one-episode fit), parsing with it is cheap. Every parse
+    first sets each action's default and type the same way, so one parser parses as a fresh one
+    (``draccus.parse``) does."""
+    from draccus.argparsing import ArgumentParser
+
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+
+    return ArgumentParser(config_class=ForceMapConfig)
 
 
 def fit_policy(
