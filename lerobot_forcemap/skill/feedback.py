@@ -1,0 +1,160 @@
+"""Force feedback at execution: the demonstration's contact profile (fit time) and a bounded
+admittance correction of the target along the contact normal (each control step). Pure NumPy.
+
+Fit time (:func:`force_profile`, from one demonstration):
+
+* the contact normal n: the unit sum of the demonstrated reaction over its contact frames
+  (``|f| > f_contact``), pointing away from the surface (a wipe's friction tilts it a few degrees);
+* the expected force ``expected (T,)``: the reaction along n, ``max(f . n, 0)``, as a running max
+  over +-``dilate_s`` (a contact a little earlier or later is still expected);
+* the demonstration's stiffness ``K_demo`` (N/m): the median over contact frames of
+  ``f . n / ((x_measured - x_commanded) . n)``, i.e. the controller the demonstration was recorded
+  with, read from its data (NaN without a measured pose or contact).
+
+Each control step (:class:`ForceFeedback`, one state per batch row; ``f`` the measured reaction minus
+a self-tare of the first ``tare_steps`` observations, ``F_ref(t) = min(budget, expected(t))``,
+``v`` the target's own speed along n, negative towards the surface)::
+
+    e = f . n - F_ref
+    e >  deadband:               lift   u += min(lift_gain (e - deadband), v_max) dt
+    e < -deadband and u > 0:     undo the lift (faster of the gain and u / tau)
+    e < -deadband and may_push:  push   u -= (max(v, 0) + min(push_gain (-e - deadband), v_push)) dt
+    target = map target + u n,   u in [-max_push, max_lift]
+
+``may_push``: contact is expected (``F_ref > f_touch``) and felt (``f . n > f_touch``), and the map
+itself is nearly still along n (``-hold_speed <= v <= ratchet_speed``): the push never adds to the
+map's own approach, never chases a surface that is not there, and lets a deliberate lift-off go.
+A push no longer wanted decays with ``tau``. In steady contact the force settles within
+``F_ref +- deadband`` whatever the controller's stiffness, as long as the bounds are not reached.
+Units: m, s, N; gains m/(N s).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["ForceProfile", "FeedbackGains", "ForceFeedback", "force_profile", "dilate"]
+
+Array = NDArray[np.float64]
+
+
+def dilate(x: Array, half_width: int) -> Array:
+    """Running max over +- ``half_width`` samples."""
+    if half_width <= 0:
+        return np.array(x, dtype=np.float64)
+    pad = np.pad(x, half_width, mode="edge")
+    return np.lib.stride_tricks.sliding_window_view(pad, 2 * half_width + 1).max(axis=1)
+
+
+@dataclass(frozen=True)
+class ForceProfile:
+    """``expected (T,)`` N at frame times k / fps; ``normal (3,)`` unit, base frame of the
+    demonstration; ``stiffness`` K_demo N/m (NaN when the data cannot tell)."""
+
+    expected: Array
+    normal: Array
+    stiffness: float
+
+
+def force_profile(
+    force: Array,
+    commanded: Array,
+    measured: Array | None,
+    fps: float,
+    *,
+    f_contact: float = 2.0,
+    dilate_s: float = 0.5,
+) -> ForceProfile:
+    """The profile of one demonstration: ``force (T, 3)`` reaction on the robot (N, base frame),
+    ``commanded (T, 3)`` target positions, ``measured (T, 3)`` TCP positions or None (m)."""
+    f = np.asarray(force, dtype=np.float64)[:, :3]
+    contact = np.linalg.norm(f, axis=1) > f_contact
+    total = f[contact].sum(axis=0)
+    norm = np.linalg.norm(total)
+    normal = total / norm if contact.any() and norm > 1e-9 else np.array([0.0, 0.0, 1.0])
+    along = np.maximum(f @ normal, 0.0)
+    expected = dilate(along, int(round(dilate_s * fps)))
+    stiffness = float("nan")
+    if measured is not None:
+        lag = (np.asarray(measured, dtype=np.float64) - np.asarray(commanded, dtype=np.float64)) @ normal
+        ok = contact & (lag > 1e-4)
+        if ok.any():
+            stiffness = float(np.median(along[ok] / lag[ok]))
+    return ForceProfile(expected=expected, normal=normal, stiffness=stiffness)
+
+
+@dataclass(frozen=True)
+class FeedbackGains:
+    """The law's settings (module docstring): N, m, s; gains m/(N s)."""
+
+    budget: float = 7.0
+    lift_gain: float = 2e-3
+    push_gain: float = 1e-2
+    deadband: float = 0.5
+    max_push: float = 0.015
+    max_lift: float = 0.03
+    v_max: float = 0.05
+    v_push: float = 0.02
+    tau: float = 0.3
+    f_touch: float = 1.0
+    hold_speed: float = 0.005
+    ratchet_speed: float = 0.01
+    tare_steps: int = 2
+
+
+class ForceFeedback:
+    """The run-time law for ``n`` batch rows, stepped at ``control_hz`` (module docstring)."""
+
+    def __init__(self, profile: ForceProfile, gains: FeedbackGains, fps: float, control_hz: float, n: int):
+        self.profile, self.gains, self.fps, self.dt = profile, gains, fps, 1.0 / control_hz
+        self.k = 0
+        self.u = np.zeros(n)
+        self._tare_sum = np.zeros((n, 3))
+        self._prev: Array | None = None
+
+    def reference(self, t: float) -> float:
+        """``F_ref(t)`` N (the last frame's value after the demonstration's end)."""
+        e = self.profile.expected
+        return float(min(self.gains.budget, e[min(int(round(t * self.fps)), len(e) - 1)]))
+
+    def offset(self) -> Array:
+        """The current correction ``(n, 3)`` m added to the targets."""
+        return self.u[:, None] * self.profile.normal
+
+    def step(self, targets: Array, force: Array) -> Array:
+        """Corrected target positions ``(n, 3)`` from the map's ``targets (n, 3)`` and the measured
+        reaction ``force (n, >= 3)`` (N, base frame); advances one control step."""
+        g, n_vec = self.gains, self.profile.normal
+        f = self._tared(np.asarray(force, dtype=np.float64)[:, :3])
+        f_ref = self.reference(self.k * self.dt)
+        f_n = f @ n_vec
+        e = f_n - f_ref
+        speed = np.zeros(len(targets)) if self._prev is None else (targets - self._prev) @ n_vec / self.dt
+        self._prev = np.array(targets, dtype=np.float64)
+        may_push = (
+            (g.max_push > 0) & (f_ref > g.f_touch) & (f_n > g.f_touch)
+            & (speed >= -g.hold_speed) & (speed <= g.ratchet_speed)
+        )  # fmt: skip
+        self.u = self._advance(e, speed, may_push)
+        self.k += 1
+        return targets + self.offset()
+
+    def _tared(self, f: Array) -> Array:
+        if self.k < self.gains.tare_steps:
+            self._tare_sum += f
+        return f - self._tare_sum / max(1, min(self.k + 1, self.gains.tare_steps))
+
+    def _advance(self, e: Array, speed: Array, may_push: Array) -> Array:
+        g, u, dt = self.gains, self.u, self.dt
+        over, under = e > g.deadband, e < -g.deadband
+        lift = np.minimum(g.lift_gain * (e - g.deadband), g.v_max)
+        undo = -np.minimum(np.maximum(g.lift_gain * (-e - g.deadband), u / g.tau), g.v_max)
+        push = -(np.maximum(speed, 0.0) + np.minimum(g.push_gain * (-e - g.deadband), g.v_push))
+        du = np.where(over, lift, np.where(under & (u > 0), undo, np.where(under & may_push, push, 0.0)))
+        leave = (u < 0) & ~may_push & ~over
+        du = np.where(leave, np.minimum(-u / g.tau, g.v_max), du)
+        low = np.where(may_push, -g.max_push, np.minimum(0.0, u))
+        return np.clip(u + du * dt, low, g.max_lift)
