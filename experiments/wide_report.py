@@ -8,6 +8,8 @@ from typing import Any
 from experiments.wide import FORCE_TASKS, STIFFNESS_SCALES
 
 GRASP = ("grasp_push", "grasp_flip")
+#: the order of a task table's rows
+_ROW_ORDER = ("defaults", "defaults_no_feedback", "k3000", "tuned", "hybrid")
 #: how far (points) a force reduction may move between x0.5 / x2 and x1
 STIFFNESS_SPREAD = 10.0
 
@@ -149,6 +151,7 @@ def write_report(doc: dict[str, Any]) -> str:
     lines += target_lines(records)
     for task in (*FORCE_TASKS, *GRASP):
         rows = [r for r in records if r["task"] == task and r["experiment"] in ("wide", "grasp")]
+        rows.sort(key=lambda r: (r.get("object") or "", _ROW_ORDER.index(r["method"])))
         if not rows:
             continue
         lines += [
