@@ -162,12 +162,14 @@ def learned_note(task: str, learned_dir: Path) -> str:
 
 
 def _priority(cell: Cell) -> int:
-    """Run order: the defaults under wide, then what their targets compare with, then the rest."""
+    """Run order: the defaults under wide (demonstration objects), what their targets compare with,
+    the stiffness check, the unseen objects, then the reference rows."""
+    unseen = cell.object is not None and cell.object != GRASP_TASKS[cell.task][0]
     if cell.method == "defaults" and cell.experiment != "stiffness":
-        return 0
+        return 3 if unseen else 0
     if cell.method == "hybrid" and cell.task == "peg_in_hole":
         return 1
-    return 2 if cell.method == "defaults" else 3
+    return 2 if cell.method == "defaults" else 4
 
 
 def _cached(cell: Cell, workdir: Path) -> bool:
