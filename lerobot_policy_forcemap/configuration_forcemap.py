@@ -65,6 +65,7 @@ RUNTIME_FIELDS = (
     "feedback_push_gain",
     "feedback_deadband",
     "feedback_max_push",
+    "feedback_depth_ratio",
 )
 #: filled in by the fit; every tensor of a checkpoint takes its shape from them
 FITTED_FIELDS = (
@@ -76,6 +77,7 @@ FITTED_FIELDS = (
     "env_state_names",
     "dataset_tasks",
     "demo_stiffness",
+    "demo_depth",
     "n_force_profile",
 )
 #: most actions one predict_action_chunk call returns (an hour at 100 Hz; a typo of 10**7 would allocate GBs)
@@ -149,8 +151,12 @@ class ForceMapConfig(PreTrainedConfig):
             than the button's 6.4 N switch force and erase's 3 N, below the button's 8 N stop).
         feedback_lift_gain, feedback_push_gain: m/(N s), lifting above / pushing below the reference;
             feedback_deadband: N; feedback_max_push: m, the most the feedback may press past the map.
+        feedback_depth_ratio: > 0 raises the budget (10 N/s, up to the demonstrated force) while, in a
+            hold, the TCP has gone less than this fraction of the demonstration's depth past its first
+            contact (``demo_depth``; reads ``robot_pose_key``); 0: the budget is fixed.
         fps, n_segments, segment_n_nodes, segment_n_gripper_nodes, segment_anchors, env_state_names,
-            dataset_tasks, demo_stiffness (N/m, 0: unknown), n_force_profile (frames of the expected
+            dataset_tasks, demo_stiffness (N/m, 0: unknown), demo_depth (m, how far the measured TCP
+            went along the contact normal past the first contact; 0: unknown), n_force_profile (frames of the expected
             force profile): filled in by the fit (leave them at their defaults); the checkpoint's
             tensors take their shapes from them.
         normalization_mapping: IDENTITY for every feature type: the maps work on raw values.
@@ -227,6 +233,7 @@ class ForceMapConfig(PreTrainedConfig):
     env_state_names: list[str] = field(default_factory=list)
     dataset_tasks: list[str] = field(default_factory=list)
     demo_stiffness: float = 0.0
+    demo_depth: float = 0.0
     n_force_profile: int = 0
     check_task: bool = True
     control_fps: float | None = None
@@ -238,6 +245,7 @@ class ForceMapConfig(PreTrainedConfig):
     feedback_push_gain: float = 1e-2
     feedback_deadband: float = 0.5
     feedback_max_push: float = 0.015
+    feedback_depth_ratio: float = 0.0
 
     # ---- LeRobot plumbing
     normalization_mapping: dict[str, NormalizationMode] = field(
@@ -390,6 +398,8 @@ _RULES = {
     "control_fps": partial(check_real, low=1e-3, none_ok=True, unit="Hz"),
     "stiffness_from_demo": partial(check_real, low=0.0, low_open=True, none_ok=True),
     "demo_stiffness": partial(check_real, low=0.0, unit="N/m"),
+    "demo_depth": partial(check_real, low=0.0, unit="m"),
+    "feedback_depth_ratio": partial(check_real, low=0.0),
     "n_force_profile": partial(check_int, low=0),
     "force_feedback": check_bool,
     "force_budget": partial(check_real, low=0.0, unit="N"),

@@ -147,6 +147,7 @@ class ForceMapPolicy(PreTrainedPolicy):
             cfg.demo_stiffness = 0.0
             raise
         cfg.n_force_profile = 0 if profile is None else len(profile.expected)
+        cfg.demo_depth = profile.depth if profile is not None and profile.depth > 0 else 0.0
         cfg.fps = float(fps)
         cfg.n_segments = skill.n_segments
         cfg.segment_n_nodes = [len(s.nodes) for s in skill.segments]
@@ -308,7 +309,11 @@ class ForceMapPolicy(PreTrainedPolicy):
         actions = run.actions_at(np.array([self._step / self.clock_hz]))[:, 0]
         feedback = self._feedback_for(batch, len(actions))
         if feedback is not None:
-            actions[:, :3] = feedback.step(actions[:, :3], _rows(batch, self.config.force_key, len(actions)))
+            cfg, n = self.config, len(actions)
+            measured = None
+            if cfg.feedback_depth_ratio > 0 and cfg.robot_pose_key in batch:
+                measured = _rows(batch, cfg.robot_pose_key, n)[:, :3]
+            actions[:, :3] = feedback.step(actions[:, :3], _rows(batch, cfg.force_key, n), measured)
         self._step += 1
         return _tensor(actions, _any_tensor(batch))
 
@@ -331,6 +336,7 @@ class ForceMapPolicy(PreTrainedPolicy):
             expected=self.get_buffer("force_profile").detach().cpu().numpy(),
             normal=self.get_buffer("force_normal").detach().cpu().numpy(),
             stiffness=cfg.demo_stiffness,
+            depth=cfg.demo_depth if cfg.demo_depth > 0 else float("nan"),
         )
         gains = FeedbackGains(
             budget=cfg.force_budget,
@@ -338,6 +344,7 @@ class ForceMapPolicy(PreTrainedPolicy):
             push_gain=cfg.feedback_push_gain,
             deadband=cfg.feedback_deadband,
             max_push=cfg.feedback_max_push,
+            depth_ratio=cfg.feedback_depth_ratio,
         )
         self._feedback = ForceFeedback(profile, gains, cfg.fps, self.clock_hz, n)
         return self._feedback

@@ -52,11 +52,13 @@ def dilate(x: Array, half_width: int) -> Array:
 @dataclass(frozen=True)
 class ForceProfile:
     """``expected (T,)`` N at frame times k / fps; ``normal (3,)`` unit, base frame of the
-    demonstration; ``stiffness`` K_demo N/m (NaN when the data cannot tell)."""
+    demonstration; ``stiffness`` K_demo N/m and ``depth`` m, how far the measured TCP went along
+    -n after the first contact (NaN when the data cannot tell)."""
 
     expected: Array
     normal: Array
     stiffness: float
+    depth: float = float("nan")
 
 
 def force_profile(
@@ -77,18 +79,25 @@ def force_profile(
     normal = total / norm if contact.any() and norm > 1e-9 else np.array([0.0, 0.0, 1.0])
     along = np.maximum(f @ normal, 0.0)
     expected = dilate(along, int(round(dilate_s * fps)))
-    stiffness = float("nan")
+    stiffness = depth = float("nan")
     if measured is not None:
-        lag = (np.asarray(measured, dtype=np.float64) - np.asarray(commanded, dtype=np.float64)) @ normal
+        x = np.asarray(measured, dtype=np.float64) @ normal
+        lag = x - np.asarray(commanded, dtype=np.float64) @ normal
         ok = contact & (lag > 1e-4)
         if ok.any():
             stiffness = float(np.median(along[ok] / lag[ok]))
-    return ForceProfile(expected=expected, normal=normal, stiffness=stiffness)
+            first = int(np.argmax(contact))
+            depth = float(np.max(x[first] - x[first:]))
+    return ForceProfile(expected=expected, normal=normal, stiffness=stiffness, depth=depth)
 
 
 @dataclass(frozen=True)
 class FeedbackGains:
-    """The law's settings (module docstring): N, m, s; gains m/(N s)."""
+    """The law's settings (module docstring): N, m, s; gains m/(N s). ``depth_ratio`` > 0 raises the
+    budget by ``escalation_rate`` N/s while, in a hold (the map nearly still, in contact), the TCP has
+    gone less than ``depth_ratio`` x the demonstration's depth past its first contact (a stiffer
+    object than the demonstration's needs more force to move as far); never above the
+    demonstrated force. 0: a fixed budget."""
 
     budget: float = 7.0
     lift_gain: float = 2e-3
@@ -103,6 +112,8 @@ class FeedbackGains:
     hold_speed: float = 0.005
     ratchet_speed: float = 0.01
     tare_steps: int = 2
+    depth_ratio: float = 0.0
+    escalation_rate: float = 10.0
 
 
 class ForceFeedback:
@@ -112,21 +123,28 @@ class ForceFeedback:
         self.profile, self.gains, self.fps, self.dt = profile, gains, fps, 1.0 / control_hz
         self.k = 0
         self.u = np.zeros(n)
+        self.budget = np.full(n, gains.budget)
+        self._contact_at = np.full(n, np.nan)  # the TCP along n at the first contact
         self._tare_sum = np.zeros((n, 3))
         self._prev: Array | None = None
 
-    def reference(self, t: float) -> float:
-        """``F_ref(t)`` N (the last frame's value after the demonstration's end)."""
+    def expected(self, t: float) -> float:
+        """The demonstrated force along n around ``t`` (N; the last frame's value after its end)."""
         e = self.profile.expected
-        return float(min(self.gains.budget, e[min(int(round(t * self.fps)), len(e) - 1)]))
+        return float(e[min(int(round(t * self.fps)), len(e) - 1)])
+
+    def reference(self, t: float) -> Array:
+        """``F_ref(t)`` per row, N: ``min(budget, expected(t))``."""
+        return np.minimum(self.budget, self.expected(t))
 
     def offset(self) -> Array:
         """The current correction ``(n, 3)`` m added to the targets."""
         return self.u[:, None] * self.profile.normal
 
-    def step(self, targets: Array, force: Array) -> Array:
-        """Corrected target positions ``(n, 3)`` from the map's ``targets (n, 3)`` and the measured
-        reaction ``force (n, >= 3)`` (N, base frame); advances one control step."""
+    def step(self, targets: Array, force: Array, measured: Array | None = None) -> Array:
+        """Corrected target positions ``(n, 3)`` from the map's ``targets (n, 3)``, the measured
+        reaction ``force (n, >= 3)`` (N, base frame) and the measured TCP positions ``(n, 3)`` (m;
+        only read with ``depth_ratio`` > 0); advances one control step."""
         g, n_vec = self.gains, self.profile.normal
         f = self._tared(np.asarray(force, dtype=np.float64)[:, :3])
         f_ref = self.reference(self.k * self.dt)
@@ -138,9 +156,20 @@ class ForceFeedback:
             (g.max_push > 0) & (f_ref > g.f_touch) & (f_n > g.f_touch)
             & (speed >= -g.hold_speed) & (speed <= g.ratchet_speed)
         )  # fmt: skip
+        if measured is not None and self.gains.depth_ratio > 0:
+            self._escalate(np.asarray(measured, dtype=np.float64) @ n_vec, f_n, may_push)
         self.u = self._advance(e, speed, may_push)
         self.k += 1
         return targets + self.offset()
+
+    def _escalate(self, x: Array, f_n: Array, holding: Array) -> None:
+        """Raise the budget of the rows holding short of the demonstration's depth."""
+        g = self.gains
+        touching = f_n > g.f_touch
+        self._contact_at = np.where(np.isnan(self._contact_at) & touching, x, self._contact_at)
+        short = (self._contact_at - x) < g.depth_ratio * self.profile.depth
+        grow = holding & short & (self.expected(self.k * self.dt) > self.budget)
+        self.budget = np.where(grow, self.budget + g.escalation_rate * self.dt, self.budget)
 
     def _tared(self, f: Array) -> Array:
         if self.k < self.gains.tare_steps:
