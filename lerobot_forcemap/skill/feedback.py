@@ -97,7 +97,7 @@ class FeedbackGains:
     budget by ``escalation_rate`` N/s while, in a hold (the map nearly still, in contact), the TCP has
     gone less than ``depth_ratio`` x the demonstration's depth past its first contact (a stiffer
     object than the demonstration's needs more force to move as far); never above the
-    demonstrated force. 0: a fixed budget."""
+    demonstrated force, and back to ``budget`` once that depth is reached. 0: a fixed budget."""
 
     budget: float = 7.0
     lift_gain: float = 2e-3
@@ -113,7 +113,7 @@ class FeedbackGains:
     ratchet_speed: float = 0.01
     tare_steps: int = 2
     depth_ratio: float = 0.0
-    escalation_rate: float = 10.0
+    escalation_rate: float = 5.0
 
 
 class ForceFeedback:
@@ -125,6 +125,7 @@ class ForceFeedback:
         self.u = np.zeros(n)
         self.budget = np.full(n, gains.budget)
         self._contact_at = np.full(n, np.nan)  # the TCP along n at the first contact
+        self._reached = np.zeros(n, dtype=bool)  # went the demonstration's depth fraction
         self._tare_sum = np.zeros((n, 3))
         self._prev: Array | None = None
 
@@ -167,9 +168,10 @@ class ForceFeedback:
         g = self.gains
         touching = f_n > g.f_touch
         self._contact_at = np.where(np.isnan(self._contact_at) & touching, x, self._contact_at)
-        short = (self._contact_at - x) < g.depth_ratio * self.profile.depth
-        grow = holding & short & (self.expected(self.k * self.dt) > self.budget)
+        self._reached |= (self._contact_at - x) >= g.depth_ratio * self.profile.depth
+        grow = holding & ~self._reached & (self.expected(self.k * self.dt) > self.budget)
         self.budget = np.where(grow, self.budget + g.escalation_rate * self.dt, self.budget)
+        self.budget = np.where(self._reached, g.budget, self.budget)
 
     def _tared(self, f: Array) -> Array:
         if self.k < self.gains.tare_steps:
