@@ -151,7 +151,7 @@ class ForceMapConfig(PreTrainedConfig):
             than the button's 6.4 N switch force and erase's 3 N, below the button's 8 N stop).
         feedback_lift_gain, feedback_push_gain: m/(N s), lifting above / pushing below the reference;
             feedback_deadband: N; feedback_max_push: m, the most the feedback may press past the map.
-        feedback_depth_ratio: > 0 raises the budget (5 N/s, up to the demonstrated force) while, in a
+        feedback_depth_ratio: > 0 raises the budget (10 N/s, up to the demonstrated force) while, in a
             hold, the TCP has gone less than this fraction of the demonstration's depth past its first
             contact (``demo_depth``; reads ``robot_pose_key``); 0: the budget is fixed.
         fps, n_segments, segment_n_nodes, segment_n_gripper_nodes, segment_anchors, env_state_names,

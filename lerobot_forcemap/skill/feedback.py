@@ -113,7 +113,7 @@ class FeedbackGains:
     ratchet_speed: float = 0.01
     tare_steps: int = 2
     depth_ratio: float = 0.0
-    escalation_rate: float = 5.0
+    escalation_rate: float = 10.0
 
 
 class ForceFeedback:
