@@ -61,6 +61,23 @@ def _table(rows: list[dict[str, Any]]) -> list[str]:
     return out
 
 
+def _failure_lines(rows: list[dict[str, Any]]) -> list[str]:
+    """The scene draws of the defaults rows' failed episodes (what made them fail)."""
+    out = []
+    for r in rows:
+        fails = r.get("variation_of_failures") or []
+        if r["method"] != "defaults" or not fails:
+            continue
+        shown = "; ".join(
+            f"seed {f['seed']} ({f['reason']}): spring x{f['spring_scale']:.2f}, controller x{f['stiffness_scale']:.2f}, "
+            f"yaw {f['yaw']:+.2f} rad, shift {1e3 * f['shift'][0]:+.0f}/{1e3 * f['shift'][1]:+.0f}/{1e3 * f['shift'][2]:+.0f} mm"
+            for f in fails[:12]
+        )
+        obj = f" ({r['object']})" if r.get("object") else ""
+        out += ["", f"Failed episodes of the defaults{obj}: {shown}{' ...' if len(fails) > 12 else ''}."]
+    return out
+
+
 def _find(records, part: str, task: str, method: str, obj: str | None = None, scale: float | None = None):
     for r in records:
         if (r["experiment"], r["task"], r["method"]) != (part, task, method):
@@ -161,6 +178,7 @@ def write_report(doc: dict[str, Any]) -> str:
             *_table(rows),
             "",
             f"Learned: {doc['learned'][task]}.",
+            *_failure_lines(rows),
         ]
     lines += [
         "",
