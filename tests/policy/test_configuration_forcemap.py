@@ -175,7 +175,9 @@ def test_skill_params_hold_every_fit_setting_of_the_config():
     assert flat(cfg.skill_params()) == {name: getattr(cfg, name) for name in RULES}
     assert flat(SkillParams()) == {name: getattr(ForceMapConfig(device="cpu"), name) for name in RULES}
     # stiffness_from_demo is the policy's: it turns the fitted demo_stiffness into the skill's stiffness
-    fit_settings = (set(RULES) | {"segment_overrides", "episodes", "stiffness_from_demo"}) - set(RUNTIME_FIELDS)
+    fit_settings = (set(RULES) | {"segment_overrides", "episodes", "stiffness_from_demo"}) - set(
+        RUNTIME_FIELDS
+    )
     assert set(ForceMapConfig.fit_field_names()) == fit_settings
 
 
