@@ -31,6 +31,7 @@ from lerobot_forcemap import layout
 from lerobot_forcemap._validation import check_choice, check_int, fail
 from lerobot_forcemap.envs.base_env import OBS_TYPES
 from lerobot_forcemap.envs.registration import NAMESPACE, TASKS, TaskSpec, env_class, task_spec
+from lerobot_forcemap.envs.variation import check_level
 
 __all__ = ["ENV_TYPES", "ForcemapEnvConfig", "ForcemapGraspEnvConfig", "env_config_class", "task_features"]
 
@@ -107,7 +108,8 @@ class ForcemapEnvConfig(EnvConfig):
     image_size: int = 128
     render_size: int = 256
     robot: str | None = None
-    randomize: bool = True
+    # "none" | "paper" | "wide" (lerobot_forcemap/envs/variation.py); true / false read as "paper" / "none"
+    randomize: str = "paper"
     features: dict[str, PolicyFeature] = field(default_factory=dict)
     features_map: dict[str, str] = field(default_factory=dict)
     # Comma-separated observation keys appended to environment_state by an env processor, for
@@ -128,6 +130,7 @@ class ForcemapEnvConfig(EnvConfig):
         for name in ("episode_length", "image_size", "render_size"):
             check_int(name, getattr(self, name), low=1)
         check_choice("obs_type", self.obs_type, OBS_TYPES)
+        self.randomize = check_level("randomize", self.randomize)
         if self.render_mode != "rgb_array":
             # lerobot-eval always writes videos from env.render(); without frames eval_info.json would
             # list videos that were never written

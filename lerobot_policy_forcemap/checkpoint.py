@@ -35,6 +35,8 @@ __all__ = [
     "check_skill_values",
     "check_processor_files",
     "fetch_hub_checkpoint",
+    "profile_shapes",
+    "PROFILE_TENSORS",
 ]
 
 logger = logging.getLogger(__name__)
@@ -50,6 +52,8 @@ SKILL_TENSORS = (
     "anchor_poses",
     "anchor_initial_poses",
 )
+#: the force feedback's arrays (float64; present when the fit found contact, ``n_force_profile`` > 0)
+PROFILE_TENSORS = ("force_profile", "force_normal")
 #: the one parameter LeRobot's optimiser needs; its value is never used
 DUMMY_PARAMETER = "closed_form_dummy"
 #: LeRobot's pre-/post-processor pipelines saved next to the policy (``make_pre_post_processors`` reads them)
@@ -71,7 +75,17 @@ def expected_tensors(config: ForceMapConfig) -> dict[str, tuple[tuple[int, ...],
         "anchor_poses": (s, 7),
         "anchor_initial_poses": (s, 7),
     }
+    if config.n_force_profile:
+        shapes.update(profile_shapes(config))
     return {**{name: (shape, "F64") for name, shape in shapes.items()}, DUMMY_PARAMETER: ((1,), "F32")}
+
+
+def profile_shapes(config: ForceMapConfig) -> dict[str, tuple[int, ...]]:
+    """The feedback's tensors: the expected force along the contact normal per demonstration frame
+    (N) and the normal (unit, base frame); none when the fit stored no profile."""
+    if not config.n_force_profile:
+        return {}
+    return {"force_profile": (config.n_force_profile,), "force_normal": (3,)}
 
 
 def read_config_json(path: Path) -> dict:

@@ -59,6 +59,13 @@ RUNTIME_FIELDS = (
     "chunk_size",
     "check_task",
     "control_fps",
+    "force_feedback",
+    "force_budget",
+    "feedback_lift_gain",
+    "feedback_push_gain",
+    "feedback_deadband",
+    "feedback_max_push",
+    "feedback_depth_ratio",
 )
 #: filled in by the fit; every tensor of a checkpoint takes its shape from them
 FITTED_FIELDS = (
@@ -69,6 +76,9 @@ FITTED_FIELDS = (
     "segment_anchors",
     "env_state_names",
     "dataset_tasks",
+    "demo_stiffness",
+    "demo_depth",
+    "n_force_profile",
 )
 #: most actions one predict_action_chunk call returns (an hour at 100 Hz; a typo of 10**7 would allocate GBs)
 MAX_CHUNK_SIZE = 360_000
@@ -113,7 +123,12 @@ class ForceMapConfig(PreTrainedConfig):
             force_limit, time_scale, max_iter: the arm maps (``skill.params.ArmMap``). stiffness k
             (N/m): a node in steady contact with force F is lifted by F/k; reproduced with a compliant
             controller of stiffness K this leaves a force F·(1 − K/k) (k = K removes it, k → ∞ none).
-            The default 3000 N/m = 1.5 × the simulated UR5e's 2000 N/m keeps a third.
+            Used when ``stiffness_from_demo`` is None (or the demonstration cannot tell its stiffness).
+        stiffness_from_demo: k = this factor × the demonstration's own stiffness K_demo, read from its
+            data (median of force / (measured − commanded position) along the contact normal in
+            contact; needs ``robot_pose_key`` in the dataset). 0.8 lifts a contact node a little past
+            where the demonstration's controller held it, so the path ends about at the surface it
+            reached; the feedback then sets the force. None: the fixed ``stiffness``.
         gripper_lam, gripper_mu, gripper_delta, gripper_f_contact, gripper_stiffness,
             gripper_time_scale, gripper_nodes_per_second: the gripper maps (``skill.params.GripperMap``).
         segment_overrides: ``{segment: {setting: value}}`` changes a map setting for one segment.
@@ -129,8 +144,20 @@ class ForceMapConfig(PreTrainedConfig):
             (its environment state would be another scene's objects).
         control_fps: the rate (Hz) of ``select_action`` calls, i.e. the env's control rate; None: the
             dataset's fps (the env the demonstrations were recorded in).
+        force_feedback: correct the target along the demonstration's contact normal so that the
+            measured reaction stays near min(force_budget, the demonstrated force) (a bounded
+            admittance, ``lerobot_forcemap.skill.feedback``; needs ``force_key`` in the observation).
+        force_budget: N, the most force the feedback lets through in contact (sim default 7 N: more
+            than the button's 6.4 N switch force and erase's 3 N, below the button's 8 N stop).
+        feedback_lift_gain, feedback_push_gain: m/(N s), lifting above / pushing below the reference;
+            feedback_deadband: N; feedback_max_push: m, the most the feedback may press past the map.
+        feedback_depth_ratio: > 0 raises the budget (10 N/s, up to the demonstrated force) while, in a
+            hold, the TCP has gone less than this fraction of the demonstration's depth past its first
+            contact (``demo_depth``; reads ``robot_pose_key``); 0: the budget is fixed.
         fps, n_segments, segment_n_nodes, segment_n_gripper_nodes, segment_anchors, env_state_names,
-            dataset_tasks: filled in by the fit (leave them at their defaults); the checkpoint's
+            dataset_tasks, demo_stiffness (N/m, 0: unknown), demo_depth (m, how far the measured TCP
+            went along the contact normal past the first contact; 0: unknown), n_force_profile (frames of the expected
+            force profile): filled in by the fit (leave them at their defaults); the checkpoint's
             tensors take their shapes from them.
         normalization_mapping: IDENTITY for every feature type: the maps work on raw values.
     """
@@ -168,6 +195,7 @@ class ForceMapConfig(PreTrainedConfig):
     delta: float = _ARM.delta
     f_contact: float = _ARM.f_contact
     stiffness: float = _ARM.stiffness
+    stiffness_from_demo: float | None = 0.8
     rho_max: float | None = _ARM.rho_max
     force_limit: float | None = _ARM.force_limit
     time_scale: float = _ARM.time_scale
@@ -204,8 +232,20 @@ class ForceMapConfig(PreTrainedConfig):
     segment_anchors: list[str] = field(default_factory=list)
     env_state_names: list[str] = field(default_factory=list)
     dataset_tasks: list[str] = field(default_factory=list)
+    demo_stiffness: float = 0.0
+    demo_depth: float = 0.0
+    n_force_profile: int = 0
     check_task: bool = True
     control_fps: float | None = None
+
+    # ---- force feedback at execution
+    force_feedback: bool = True
+    force_budget: float = 7.0
+    feedback_lift_gain: float = 2e-3
+    feedback_push_gain: float = 1e-2
+    feedback_deadband: float = 0.5
+    feedback_max_push: float = 0.015
+    feedback_depth_ratio: float = 0.0
 
     # ---- LeRobot plumbing
     normalization_mapping: dict[str, NormalizationMode] = field(
@@ -287,10 +327,12 @@ class ForceMapConfig(PreTrainedConfig):
         return self.n_segments > 0
 
     def skill_params(self) -> SkillParams:
-        """The settings of the fit and the placement, for ``lerobot_forcemap.skill``."""
-        return SkillParams.from_settings(
-            {name: getattr(self, name) for name in (*RULES, "segment_overrides")}
-        )
+        """The settings of the fit and the placement, for ``lerobot_forcemap.skill``; the arm's
+        stiffness is ``stiffness_from_demo`` × ``demo_stiffness`` once the fit has read the latter."""
+        settings = {name: getattr(self, name) for name in (*RULES, "segment_overrides")}
+        if self.stiffness_from_demo is not None and self.demo_stiffness > 0:
+            settings["stiffness"] = self.stiffness_from_demo * self.demo_stiffness
+        return SkillParams.from_settings(settings)
 
     @classmethod
     def field_names(cls) -> tuple[str, ...]:
@@ -354,4 +396,15 @@ _RULES = {
     "chunk_size": partial(check_int, low=1, high=MAX_CHUNK_SIZE),
     # 1e-3 Hz: below it the skill would never advance
     "control_fps": partial(check_real, low=1e-3, none_ok=True, unit="Hz"),
+    "stiffness_from_demo": partial(check_real, low=0.0, low_open=True, none_ok=True),
+    "demo_stiffness": partial(check_real, low=0.0, unit="N/m"),
+    "demo_depth": partial(check_real, low=0.0, unit="m"),
+    "feedback_depth_ratio": partial(check_real, low=0.0),
+    "n_force_profile": partial(check_int, low=0),
+    "force_feedback": check_bool,
+    "force_budget": partial(check_real, low=0.0, unit="N"),
+    "feedback_lift_gain": partial(check_real, low=0.0, unit="m/(N s)"),
+    "feedback_push_gain": partial(check_real, low=0.0, unit="m/(N s)"),
+    "feedback_deadband": partial(check_real, low=0.0, unit="N"),
+    "feedback_max_push": partial(check_real, low=0.0, unit="m"),
 }

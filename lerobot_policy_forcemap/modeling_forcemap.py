@@ -37,12 +37,14 @@ from lerobot_forcemap._validation import check_array, fail
 from lerobot_forcemap.data.hub import check_repo_id
 from lerobot_forcemap.data.reader import read_episodes, to_meta
 from lerobot_forcemap.skill.episodes import EpisodeArrays, episodes_from_columns, needed_columns
+from lerobot_forcemap.skill.feedback import FeedbackGains, ForceFeedback, ForceProfile, force_profile
 from lerobot_forcemap.skill.fit import FitReport, fit_skill
 from lerobot_forcemap.skill.model import FittedSkill
 from lerobot_forcemap.skill.params import SkillParams
 from lerobot_forcemap.skill.placement import SkillRun, object_poses, object_slots, path_distances
 from lerobot_policy_forcemap.checkpoint import (
     DUMMY_PARAMETER,
+    PROFILE_TENSORS,
     SKILL_TENSORS,
     check_processor_files,
     check_safetensors_file,
@@ -65,10 +67,19 @@ def load_episodes(dataset: Any, config: ForceMapConfig) -> tuple[list[EpisodeArr
     """Read ``config.episodes`` of a LeRobot dataset (a folder, a ``LeRobotDatasetMetadata`` or a
     ``DatasetMeta``: see ``lerobot_forcemap.data.reader.to_meta``); returns (episodes, features, fps,
     the task strings of those episodes)."""
+    episodes, features, fps, tasks, _ = _load(dataset, config)
+    return episodes, features, fps, tasks
+
+
+def _load(dataset: Any, config: ForceMapConfig):
+    """:func:`load_episodes` plus the measured TCP positions ``(T, 3)`` of the first episode (from
+    ``robot_pose_key``; None when the dataset has none)."""
     params = config.skill_params()
-    data = read_episodes(dataset, config.episodes, needed_columns(params), name="ForceMapConfig.episodes")
+    columns = [*needed_columns(params), config.robot_pose_key]
+    data = read_episodes(dataset, config.episodes, columns, name="ForceMapConfig.episodes")
     episodes = episodes_from_columns(data.columns, data.features, params, config.episodes)
-    return episodes, data.features, data.fps, data.tasks
+    measured = _measured_positions(data.columns, config.robot_pose_key, config.episodes[0])
+    return episodes, data.features, data.fps, data.tasks, measured
 
 
 class ForceMapPolicy(PreTrainedPolicy):
@@ -94,6 +105,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         self.fit_report: FitReport | None = None
         self._skill: FittedSkill | None = None
         self._warned_clock = False  # the control_fps warning: once per policy, not per episode
+        self._warned_no_force = False
         self._forward_calls = 0  # training steps seen: the second one says it changes nothing
         if dataset_meta is not None and config.pretrained_path is None:
             config.check_unfitted()
@@ -108,18 +120,34 @@ class ForceMapPolicy(PreTrainedPolicy):
     def fit_dataset(self, dataset: Any) -> FitReport:
         """Fit from ``config.episodes`` of a LeRobot dataset (a folder, a ``LeRobotDatasetMetadata`` or a
         ``DatasetMeta``); fills the config's fitted fields."""
-        episodes, features, fps, tasks = load_episodes(dataset, self.config)
+        episodes, features, fps, tasks, measured = _load(dataset, self.config)
         env_key = self.config.env_state_key
         names = list(features[env_key].get("names") or []) if env_key in features else []
-        return self.fit_episodes(episodes, fps, names, tasks)
+        return self.fit_episodes(episodes, fps, names, tasks, measured=measured)
 
     def fit_episodes(
-        self, episodes: list[EpisodeArrays], fps: float, env_state_names: list[str], tasks: Sequence[str] = ()
+        self,
+        episodes: list[EpisodeArrays],
+        fps: float,
+        env_state_names: list[str],
+        tasks: Sequence[str] = (),
+        *,
+        measured: np.ndarray | None = None,
     ) -> FitReport:
         """Fit from :class:`~lerobot_forcemap.skill.episodes.EpisodeArrays` (no LeRobot dataset needed);
-        ``tasks``: their task strings (an env asking for another task is refused, ``check_task``)."""
-        skill, report = fit_skill(episodes, self.params, fps, env_state_names)
+        ``tasks``: their task strings (an env asking for another task is refused, ``check_task``);
+        ``measured``: the first episode's measured TCP positions ``(T, 3)`` (m), from which the
+        demonstration's stiffness is read (None: ``stiffness`` is used as it is)."""
         cfg = self.config
+        profile = _demo_profile(episodes[0], measured, fps, cfg.f_contact)
+        cfg.demo_stiffness = profile.stiffness if profile is not None and profile.stiffness > 0 else 0.0
+        try:
+            skill, report = fit_skill(episodes, self.params, fps, env_state_names)
+        except Exception:
+            cfg.demo_stiffness = 0.0
+            raise
+        cfg.n_force_profile = 0 if profile is None else len(profile.expected)
+        cfg.demo_depth = profile.depth if profile is not None and profile.depth > 0 else 0.0
         cfg.fps = float(fps)
         cfg.n_segments = skill.n_segments
         cfg.segment_n_nodes = [len(s.nodes) for s in skill.segments]
@@ -128,7 +156,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         cfg.env_state_names = list(env_state_names)
         cfg.dataset_tasks = sorted(str(t) for t in tasks)
         cfg.validate_parameters()
-        self._register_skill_buffers(skill)
+        self._register_skill_buffers(skill, profile)
         self.fit_report = report
         logger.info(
             "forcemap fit: episode(s) %s (--policy.episodes), %d segment(s), anchors %s, %.3f s",
@@ -136,16 +164,21 @@ class ForceMapPolicy(PreTrainedPolicy):
         )  # fmt: skip
         return report
 
-    def _register_skill_buffers(self, skill: FittedSkill | None) -> None:
+    def _register_skill_buffers(self, skill: FittedSkill | None, profile: ForceProfile | None = None) -> None:
         """Persistent float64 buffers with the shapes the config's fitted fields imply (zeros if unfitted)."""
         device = getattr(self, DUMMY_PARAMETER).device
+        for name in PROFILE_TENSORS:  # a refit without contact drops the previous fit's profile
+            self._buffers.pop(name, None)
         if skill is not None:
-            for name, array in skill.flat_arrays().items():
-                tensor = torch.from_numpy(np.ascontiguousarray(array)).to(device)
+            arrays = dict(skill.flat_arrays())
+            if profile is not None:
+                arrays.update(force_profile=profile.expected, force_normal=profile.normal)
+            for name, array in arrays.items():
+                tensor = torch.from_numpy(np.ascontiguousarray(array, dtype=np.float64)).to(device)
                 self.register_buffer(name, tensor, persistent=True)
         else:
             for name, (shape, _) in expected_tensors(self.config).items():
-                if name in SKILL_TENSORS:
+                if name in SKILL_TENSORS or name in PROFILE_TENSORS:
                     self.register_buffer(name, torch.zeros(shape, dtype=torch.float64, device=device))
             if self.config.is_fitted:
                 self.get_buffer("orientations")[:, 0] = 1.0  # unit quaternions until the weights arrive
@@ -230,7 +263,8 @@ class ForceMapPolicy(PreTrainedPolicy):
     def _apply(self, fn, recurse: bool = True):
         """``.to(device)`` moves the maps; a dtype cast (``.half()``, ``.float()``) is undone for them:
         float16 would move a node by about 0.2 mm, and the checkpoint format stores float64."""
-        maps = {name: self._buffers[name] for name in SKILL_TENSORS if self._buffers.get(name) is not None}
+        kept = (*SKILL_TENSORS, *PROFILE_TENSORS)
+        maps = {name: self._buffers[name] for name in kept if self._buffers.get(name) is not None}
         super()._apply(fn, recurse)
         for name, before in maps.items():
             after = self._buffers[name]
@@ -246,6 +280,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         """Start a new episode: the next observation places the skill."""
         self._step = 0
         self._run: SkillRun | None = None
+        self._feedback: ForceFeedback | None = None
 
     @property
     def reanchor_log(self) -> list[dict[str, Any]]:
@@ -262,15 +297,57 @@ class ForceMapPolicy(PreTrainedPolicy):
         """The next ``chunk_size`` targets ``(B, chunk_size, 8)`` from the current time (does not advance it)."""
         run = self._run_for(batch)
         times = (self._step + np.arange(self.config.chunk_size)) / self.clock_hz
-        return _tensor(run.actions_at(times), _any_tensor(batch))
+        actions = run.actions_at(times)
+        if self._feedback is not None:  # the correction so far; select_action updates it
+            actions[:, :, :3] += self._feedback.offset()[:, None, :]
+        return _tensor(actions, _any_tensor(batch))
 
     @torch.no_grad()
     def select_action(self, batch: dict[str, Tensor], **kwargs: Any) -> Tensor:
         """The target ``(B, 8)`` at t = k / clock_hz for the k-th call since ``reset``."""
         run = self._run_for(batch)
-        action = _tensor(run.actions_at(np.array([self._step / self.clock_hz])), _any_tensor(batch))[:, 0]
+        actions = run.actions_at(np.array([self._step / self.clock_hz]))[:, 0]
+        feedback = self._feedback_for(batch, len(actions))
+        if feedback is not None:
+            cfg, n = self.config, len(actions)
+            measured = None
+            if cfg.feedback_depth_ratio > 0 and cfg.robot_pose_key in batch:
+                measured = _rows(batch, cfg.robot_pose_key, n)[:, :3]
+            actions[:, :3] = feedback.step(actions[:, :3], _rows(batch, cfg.force_key, n), measured)
         self._step += 1
-        return action
+        return _tensor(actions, _any_tensor(batch))
+
+    def _feedback_for(self, batch: dict[str, Any], n: int) -> ForceFeedback | None:
+        """This episode's force feedback (made on its first step): None when ``force_feedback`` is off,
+        the fit stored no profile, or the observation has no force (then a warning, once)."""
+        cfg = self.config
+        if self._feedback is not None or not cfg.force_feedback or not cfg.n_force_profile:
+            return self._feedback
+        if cfg.force_key not in batch:
+            if not self._warned_no_force:
+                warnings.warn(
+                    f"force_feedback: the observation has no {cfg.force_key!r}; the skill runs without "
+                    "feedback (set force_feedback=false to silence this)",
+                    stacklevel=3,
+                )
+                self._warned_no_force = True
+            return None
+        profile = ForceProfile(
+            expected=self.get_buffer("force_profile").detach().cpu().numpy(),
+            normal=self.get_buffer("force_normal").detach().cpu().numpy(),
+            stiffness=cfg.demo_stiffness,
+            depth=cfg.demo_depth if cfg.demo_depth > 0 else float("nan"),
+        )
+        gains = FeedbackGains(
+            budget=cfg.force_budget,
+            lift_gain=cfg.feedback_lift_gain,
+            push_gain=cfg.feedback_push_gain,
+            deadband=cfg.feedback_deadband,
+            max_push=cfg.feedback_max_push,
+            depth_ratio=cfg.feedback_depth_ratio,
+        )
+        self._feedback = ForceFeedback(profile, gains, cfg.fps, self.clock_hz, n)
+        return self._feedback
 
     def _run_for(self, batch: dict[str, Any]) -> SkillRun:
         """This episode's run: placed on its first observation, re-anchored as its segments start."""
@@ -395,6 +472,28 @@ class ForceMapPolicy(PreTrainedPolicy):
 
 
 # ---- helpers -------------------------------------------------------------------------------------------
+
+
+def _measured_positions(columns: dict[str, np.ndarray], key: str, episode: int) -> np.ndarray | None:
+    """Measured TCP positions ``(T, 3)`` of ``episode`` in frame order (None: no such column, or not finite)."""
+    if key not in columns:
+        return None
+    rows = np.flatnonzero(np.asarray(columns["episode_index"]).reshape(-1) == episode)
+    frames = np.asarray(columns["frame_index"]).reshape(-1)[rows]
+    rows = rows[np.argsort(frames, kind="stable")]
+    values = np.asarray(columns[key])[rows].reshape(len(rows), -1)[:, :3].astype(np.float64)
+    return values if np.isfinite(values).all() else None
+
+
+def _demo_profile(
+    episode: EpisodeArrays, measured: np.ndarray | None, fps: float, f_contact: float
+) -> ForceProfile | None:
+    """The feedback's profile of the first demonstration; None without force data or contact."""
+    if not episode.has_force or not np.any(np.linalg.norm(episode.force, axis=1) > f_contact):
+        return None
+    if measured is not None and len(measured) != episode.n_frames:
+        measured = None
+    return force_profile(episode.force, episode.pose[:, :3], measured, fps, f_contact=f_contact)
 
 
 def _fetch(name: str, hub_kwargs: dict) -> Path:

@@ -74,7 +74,7 @@ def cells(tuning: dict[str, dict[str, Any]], s: Settings) -> list[Cell]:
                     "forcemap",
                     job.demo,
                     job.seeds,
-                    overrides=(*base, _weights(auto[job.demo])),
+                    overrides=(*job.overrides, _weights(auto[job.demo])),
                 )
             )
         out.append(

@@ -84,6 +84,7 @@ def build_configs(doc: dict[str, Any], learned: list[dict[str, Any]]) -> dict[st
     """``{"train/<name>.json" | "eval/<name>.json": config}`` from an experiments document and the learned
     baselines' result documents (``results/learned/<task>__<method>.json``)."""
     from experiments.learned.baselines import policy_config, train_settings
+    from experiments.paper.common import PAPER_LAW
 
     seeds = list(doc["protocol"]["eval_seeds"])
     out: dict[str, dict[str, Any]] = {}
@@ -96,7 +97,8 @@ def build_configs(doc: dict[str, Any], learned: list[dict[str, Any]]) -> dict[st
             f"datasets/{task}",
             f"outputs/train/{name}",
             steps=1,
-            config=forcemap_policy_fields(headline_overrides(doc, task)),
+            # the force law the results were measured with (PAPER_LAW) comes first
+            config=forcemap_policy_fields([*PAPER_LAW, *headline_overrides(doc, task)]),
             seed=seeds[0],
         )
         out[f"eval/{name}.json"] = eval_settings(name, task, seeds)

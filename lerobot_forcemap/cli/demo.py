@@ -3,10 +3,12 @@
     python -m lerobot_forcemap.cli.demo --out outputs/demo [--dataset datasets/press] [--episodes 20]
 
 1. loads ``datasets/press`` (LeRobot v3, scripted demonstrations that press far too hard, like VR
-   teleoperation without haptic feedback) and fits the forcemap policy one-shot from episode 0
-   (segmentation, one force-constrained elastic map per segment) — ``outputs/demo/policy``;
+   teleoperation without haptic feedback) and fits the forcemap policy one-shot from episode 0 with
+   the package defaults, tuned for nothing (segmentation, one force-constrained elastic map per
+   segment with k read from the demonstration, force feedback at execution) — ``outputs/demo/policy``;
 2. evaluates it in the ``press`` sim task on new scenes (seeds 1000..1019: button and start pose
-   randomised) — ``outputs/demo/eval.json`` and a video ``outputs/demo/videos/eval_episode_0.mp4``;
+   randomised; ``--randomize wide`` varies far more) — ``outputs/demo/eval.json`` and a video
+   ``outputs/demo/videos/eval_episode_0.mp4``;
 3. prints the table (success, max and mean contact force of the demonstration vs the reproduction,
    % change) and writes ``report.md``, ``force_profile.png`` (like the paper's Fig. 5),
    ``path3d.png`` and ``forces.png`` into ``outputs/demo``.
@@ -36,6 +38,12 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--episodes", type=int, default=20, help="evaluation episodes (default 20)")
     parser.add_argument("--seed", type=int, default=1000, help="first evaluation seed (default 1000)")
     parser.add_argument("--demo-episode", type=int, default=0, help="the one demonstration to learn from")
+    parser.add_argument(
+        "--randomize",
+        default="paper",
+        choices=["none", "paper", "wide"],
+        help="scene randomisation (default paper)",
+    )
     add_set_argument(parser)
     return parser
 
@@ -75,9 +83,15 @@ def _fit(args: argparse.Namespace, dataset: Path, out: Path) -> None:
             f"{row['anchor'] or '- (robot start)'}, {row['n_force_points']} force points, "
             f"{row['capped_nodes']} capped, EM {row['n_iter']} iterations ({row['stop_reason']})"
         )
-    print(
-        f"      stiffness k = {cfg.stiffness:g} N/m, delta = {cfg.delta:g} m, fit {1e3 * fit.fit_s:.0f} ms incl. first-use imports"
+    k = cfg.skill_params().arm.stiffness
+    law = (
+        f"{cfg.stiffness_from_demo:g} x the demonstration's own {cfg.demo_stiffness:.0f} N/m"
+        if cfg.stiffness_from_demo is not None and cfg.demo_stiffness > 0
+        else "fixed"
     )
+    feedback = f"on, budget {cfg.force_budget:g} N" if cfg.force_feedback and cfg.n_force_profile else "off"
+    print(f"      stiffness k = {k:.0f} N/m ({law}), force feedback {feedback}, delta = {cfg.delta:g} m")
+    print(f"      fit {1e3 * fit.fit_s:.0f} ms incl. first-use imports")
 
 
 def _evaluate(args: argparse.Namespace, dataset: Path, out: Path) -> tuple[dict, list[dict]]:
@@ -88,7 +102,14 @@ def _evaluate(args: argparse.Namespace, dataset: Path, out: Path) -> tuple[dict,
         f"[2/3] evaluate {args.episodes} episodes of {args.task} (seeds {args.seed}..{args.seed + args.episodes - 1})"
     )
     records = evaluate_policy(
-        out / "policy", args.task, args.episodes, args.seed, trace=True, video_dir=out / "videos", n_videos=1
+        out / "policy",
+        args.task,
+        args.episodes,
+        args.seed,
+        trace=True,
+        video_dir=out / "videos",
+        n_videos=1,
+        randomize=args.randomize,
     )
     doc = evaluation_document(out / "policy", args.task, args.seed, records, dataset, demo_trace=True)
     (out / "eval.json").write_text(json.dumps(doc, indent=1))

@@ -38,6 +38,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="grasping tasks: the object, e.g. apple (default: the demonstration object)",
     )
+    parser.add_argument(
+        "--randomize",
+        default="paper",
+        choices=["none", "paper", "wide"],
+        help="scene randomisation: none, paper (the tasks' own draw, default) or wide (position, height, "
+        "stiffness, friction, controller stiffness, F/T bias; docs/envs.md)",
+    )
     parser.add_argument("--trace", action="store_true", help="store per-step force / pose / action traces")
     parser.add_argument(
         "--video-dir", default=None, help="write mp4 videos of the first --videos episodes here"
@@ -80,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
         device=args.device,
         env_state_extras=args.env_state_extras,
         object_name=args.object,
+        randomize=args.randomize,
     )
     doc = evaluation_document(
         args.policy,

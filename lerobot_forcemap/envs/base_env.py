@@ -37,7 +37,7 @@ import mujoco
 import numpy as np
 from gymnasium import spaces
 
-from .._validation import check_bool, check_choice, check_int, check_real, fail, first_bad_index
+from .._validation import check_choice, check_int, check_real, fail, first_bad_index
 from ..geometry import quat_to_matrix
 from ..layout import (
     ACTION_DIM,
@@ -58,6 +58,7 @@ from .robots import RobotSpec, get_robot
 from .scene import CAMERA, BaseFrame, SceneConfig, build_scene, index_scene
 from .sensing import ForceStats, LowPass, Payload, force_norms, reaction_wrench_base
 from .tasks.base import ForceTask, StartState, StepBlock, TaskStatus
+from .variation import SceneVariation, check_level, scale_stiffness
 
 OBS_TYPES = ("state", "pixels_state")
 # LeRobot's rollout passes this reset option (lerobot.envs.utils.NEW_ROLLOUT_OPTION); accepted and ignored.
@@ -87,8 +88,11 @@ class ForceTaskEnv(gym.Env):
     Keyword arguments: ``obs_type`` ``"state"`` or ``"pixels_state"`` (adds ``pixels/front`` images of
     ``image_size`` px); ``render_mode`` ``"rgb_array"`` or None (``render()`` at ``render_size`` px);
     ``robot``: a registered robot name (default: the task's); ``force_cutoff_hz``: low-pass of the
-    force observations and statistics; ``randomize``: draw the scene from the seed (False: nominal);
-    ``settle_seconds``: simulated settling before the tare at reset; ``object``: one of the task's
+    force observations and statistics; ``randomize``: how the scene is drawn from the seed,
+    ``"none"`` (nominal), ``"paper"`` (the task's own draw; ``True`` reads as it, ``False`` as
+    ``"none"``) or ``"wide"`` (``envs/variation.py``; the draw is in ``info["variation"]``);
+    ``stiffness_scale``: factor on the impedance controller's translational stiffness (a stiffer or
+    softer arm than the task's; "wide" draws a further factor per episode); ``settle_seconds``: simulated settling before the tare at reset; ``object``: one of the task's
     ``TaskSpec.objects`` (None: the first; tasks without objects take only None).
     """
 
@@ -104,7 +108,8 @@ class ForceTaskEnv(gym.Env):
         render_size: int = 256,
         robot: str | None = None,
         force_cutoff_hz: float = 10.0,
-        randomize: bool = True,
+        randomize: str | bool = "paper",
+        stiffness_scale: float = 1.0,
         settle_seconds: float = 0.3,
         object: str | None = None,  # noqa: A002 - the public kwarg name
     ):
@@ -115,7 +120,9 @@ class ForceTaskEnv(gym.Env):
         self.render_mode = render_mode
         self.image_size = check_int("image_size", image_size, low=1, high=MAX_IMAGE_SIZE)
         self.render_size = check_int("render_size", render_size, low=1, high=MAX_IMAGE_SIZE)
-        randomize = check_bool("randomize", randomize)  # "no" is truthy: it would randomise
+        self.randomize = check_level("randomize", randomize)  # "no" is truthy: a bool test would randomise
+        self.variation = SceneVariation(self.randomize)
+        self.stiffness_scale = check_real("stiffness_scale", stiffness_scale, low=0.0, low_open=True)
         # NaN would pass a `<= 0` test, then turn the force observations and the protective stop off
         self.force_cutoff_hz = check_real(
             "force_cutoff_hz", force_cutoff_hz, low=0.0, low_open=True, unit="Hz"
@@ -124,7 +131,7 @@ class ForceTaskEnv(gym.Env):
         self.object_name = spec.check_object(object) or spec.default_object
         self.robot: RobotSpec = get_robot(robot or spec.robot)
         options = {"object_name": self.object_name} if spec.objects else {}
-        self.task_impl: ForceTask = self.task_class(self.robot, randomize=randomize, **options)
+        self.task_impl: ForceTask = self.task_class(self.robot, randomize=self.randomize != "none", **options)
         self._build_model()
         self._set_timing(settle_seconds)
         self._index_sensor_columns()
@@ -143,7 +150,7 @@ class ForceTaskEnv(gym.Env):
             render_height=max(self.render_size, self.image_size),
         )
         self.frame = BaseFrame.from_config(self.scene_config)
-        self.gains = t.gains()
+        self.gains = self.nominal_gains = scale_stiffness(t.gains(), self.stiffness_scale)
         self.mj_spec = build_scene(
             self.robot,
             t.add_objects,
@@ -158,6 +165,7 @@ class ForceTaskEnv(gym.Env):
         self._scratch = mujoco.MjData(self.model)
         self.index = index_scene(self.model, self.robot, t.sensor_names)
         t.bind(self.model, self.index, self.frame)
+        self.variation.bind(self.model, t.varied)
 
     def _set_timing(self, settle_seconds: float) -> None:
         """Physics timestep, control period and its physics steps, settle steps, the render rate."""
@@ -249,10 +257,19 @@ class ForceTaskEnv(gym.Env):
             )
         mujoco.mj_resetData(self.model, self.data)
         start: StartState = self.task_impl.reset(self.model, self.data, self.np_random)
+        self._vary_scene()
         pos_w, quat_w = self._place_robot(start)
         self._settle_and_tare()
         self._start_episode(start, pos_w, quat_w)
         return self._observation(), self._info()
+
+    def _vary_scene(self) -> None:
+        """randomize="wide": this episode's draw written into the model and the controller gains."""
+        self.variation.sample(self.np_random)
+        self.variation.apply(self.model, self.data)
+        self.gains = self.variation.gains(self.nominal_gains)
+        if self.variation.wide:
+            self.task_impl.scene_moved(self.model, self.data)
 
     def _place_robot(self, start: StartState) -> tuple[np.ndarray, np.ndarray]:
         """Arm at the start pose (offline IK), fingers and gripper command, impedance target and damping;
@@ -497,7 +514,7 @@ class ForceTaskEnv(gym.Env):
         obs: dict[str, Any] = {
             ENV_AGENT_POS: agent_pos,
             ENV_EE_POSE: ee_pose,
-            ENV_FORCE: self._wrench.astype(np.float32),
+            ENV_FORCE: self.variation.observe_force(self._wrench).astype(np.float32),
             ENV_STATE: np.asarray(self.task_impl.environment_state(d), dtype=np.float32),
         }
         if self._n_fingers:
@@ -536,6 +553,8 @@ class ForceTaskEnv(gym.Env):
             ),
             "elapsed_s": self._steps * self.control_dt,
         }
+        if self.variation.wide:
+            info["variation"] = self.variation.draw.as_info()
         if self._n_fingers:
             info["max_finger_force"] = max_norm[1:]
             info["mean_finger_force"] = mean_norm[1:]

@@ -227,6 +227,7 @@ def evaluate_policy(
     progress: bool = True,
     env_state_extras: str | Sequence[str] | None = None,
     object_name: str | None = None,
+    randomize: str = "paper",
 ) -> list[dict[str, Any]]:
     """Records of ``episodes`` episodes (env seeds seed .. seed+episodes-1); videos of the first ``n_videos``.
 
@@ -235,7 +236,8 @@ def evaluate_policy(
     --env.env_state_extras=...`` does (for ACT / Diffusion trained on a derived dataset, see
     ``lerobot_env_forcemap/env_state.py``). A checkpoint whose environment_state size differs from
     the env's (after the extras) raises ValueError. ``object_name``: the grasping tasks' object (e.g. an
-    unseen ``"apple"``; default: the demonstration object)."""
+    unseen ``"apple"``; default: the demonstration object). ``randomize``: the env's randomisation level
+    (``"none"``, ``"paper"``, ``"wide"``: ``lerobot_forcemap/envs/variation.py``)."""
     from tqdm.auto import tqdm
 
     from lerobot_forcemap.envs import make
@@ -248,7 +250,7 @@ def evaluate_policy(
     policy, pre, post = load_policy(policy_path, device)
     _match_control_rate(policy, task)
     want_video = video_dir is not None and n_videos > 0
-    env = make(task, render_mode="rgb_array" if want_video else None, **env_kwargs)
+    env = make(task, render_mode="rgb_array" if want_video else None, randomize=randomize, **env_kwargs)
     records = []
     try:
         env_pre = _env_preprocessor(task, env, policy, env_state_extras)

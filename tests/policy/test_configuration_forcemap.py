@@ -174,7 +174,10 @@ def test_skill_params_hold_every_fit_setting_of_the_config():
     cfg = ForceMapConfig(device="cpu", episodes=[2], lam=0.5, segments="none", anchor_radius=0.2)
     assert flat(cfg.skill_params()) == {name: getattr(cfg, name) for name in RULES}
     assert flat(SkillParams()) == {name: getattr(ForceMapConfig(device="cpu"), name) for name in RULES}
-    fit_settings = (set(RULES) | {"segment_overrides", "episodes"}) - set(RUNTIME_FIELDS)
+    # stiffness_from_demo is the policy's: it turns the fitted demo_stiffness into the skill's stiffness
+    fit_settings = (set(RULES) | {"segment_overrides", "episodes", "stiffness_from_demo"}) - set(
+        RUNTIME_FIELDS
+    )
     assert set(ForceMapConfig.fit_field_names()) == fit_settings
 
 

@@ -20,6 +20,7 @@ from ..._validation import fail
 from ..control import SpeedLimit, Workspace
 from ..robots import ImpedanceGains, RobotSpec, ToolBuilder
 from ..scene import BaseFrame, ContactMonitor, SceneIndex
+from ..variation import VariedParts
 
 #: gym namespace of the tasks: ``lerobot_forcemap/<TaskSpec.env_id>``
 NAMESPACE = "lerobot_forcemap"
@@ -123,6 +124,9 @@ class ForceTask(abc.ABC):
     speed_limit: ClassVar[SpeedLimit] = SpeedLimit()
     state_names: ClassVar[tuple[str, ...]]  # names of environment_state
     success_test: ClassVar[str]  # one-line description of the success test (documentation, dataset card)
+    varied: ClassVar[VariedParts] = (
+        VariedParts()
+    )  # what randomize="wide" moves and softens (envs/variation.py)
 
     def __init__(self, robot: RobotSpec, *, randomize: bool = True):
         self.robot = robot
@@ -157,6 +161,9 @@ class ForceTask(abc.ABC):
     @abc.abstractmethod
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData, rng: np.random.Generator) -> StartState:
         """Randomise objects (edit ``model``/``data``, never recompile) and return the start state."""
+
+    def scene_moved(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:  # noqa: B027
+        """Called after randomize="wide" moved the scene (refresh what :meth:`reset` cached of it)."""
 
     def before_settle(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:  # noqa: B027
         """Called after the robot is placed, before the settle steps (e.g. put a held object in the hand)."""

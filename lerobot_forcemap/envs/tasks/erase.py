@@ -25,6 +25,7 @@ from ..control import Workspace
 from ..robots import ENV_CONAFFINITY, ENV_CONTYPE, ROBOT_CONAFFINITY, ROBOT_CONTYPE
 from ..robots.parallel_gripper import PALM_LENGTH
 from ..scene import ContactMonitor
+from ..variation import VariedParts
 from .base import ForceTask, StartState, StepBlock, TaskSpec, TaskStatus
 
 SPEC = TaskSpec(
@@ -134,6 +135,9 @@ class EraseTask(ForceTask):
         "board_x", "board_y", "board_z", "board_qw", "board_qx", "board_qy", "board_qz", "coverage",
     )  # fmt: skip
     sensor_names: ClassVar[tuple[str, ...]] = ("felt_pos", "felt_quat", "felt_board")
+    varied: ClassVar[VariedParts] = VariedParts(
+        bodies=("board",), springs=("eraser_spring",), tool_bodies=("eraser",)
+    )
     success_test: ClassVar[str] = (
         f">= {SUCCESS_COVERAGE:.0%} of the S erased (dot under the felt with normal force > {ERASE_FORCE} N), "
         f"then the eraser lifted >= {LIFT_HEIGHT * 100:.0f} cm off the board"
@@ -212,6 +216,9 @@ class EraseTask(ForceTask):
         return StartState(
             tcp_pos=start, tcp_quat=np.array(self.robot.tool_down_quat, float), gripper=GRIPPER_CLOSURE
         )
+
+    def scene_moved(self, model, data) -> None:
+        self._ink_world = self.ink_world()
 
     def board_pose_world(self) -> tuple[np.ndarray, np.ndarray]:
         pos = self.model.body_pos[self._board_body] + np.array([0.0, 0.0, BOARD_TOP_Z])

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..base_env import ForceTaskEnv
 from ..robots import ENV_CONAFFINITY, ENV_CONTYPE
+from ..variation import VariedParts
 from .base import TaskSpec
 from .grasping import GRASP_OBJECTS, GraspTask, yaw_quat
 
@@ -56,6 +57,7 @@ class GraspPushTask(GraspTask):
     spec: ClassVar[TaskSpec] = SPEC
     pregrasp_name: ClassVar[str] = "upright"
     fixture_bodies: ClassVar[tuple[str, ...]] = ("wall",)
+    varied: ClassVar[VariedParts] = VariedParts(bodies=("wall",), free_joints=("object_free",))
     state_names: ClassVar[tuple[str, ...]] = (*GraspTask.object_state_names, "wall_x", "wall_y", "wall_z")
 
     def add_fixtures(self, spec: mujoco.MjSpec) -> None:

@@ -35,6 +35,7 @@ from ...geometry import quat_multiply, quat_to_matrix
 from ..control import Workspace
 from ..robots import ENV_CONAFFINITY, ENV_CONTYPE
 from ..scene import ContactMonitor
+from ..variation import VariedParts
 from .base import ForceTask, StartState, StepBlock, TaskStatus
 
 OBJECT_BODY = "object"
@@ -176,6 +177,7 @@ class GraspTask(ForceTask):
     workspace: ClassVar[Workspace] = Workspace(low=(0.2, -0.35, 0.0), high=(0.75, 0.35, 0.5))
     pregrasp_name: ClassVar[str]  # e.g. "upright"
     fixture_bodies: ClassVar[tuple[str, ...]] = ()
+    varied: ClassVar[VariedParts] = VariedParts(free_joints=("object_free",))
     object_state_names: ClassVar[tuple[str, ...]] = (
         "obj_x", "obj_y", "obj_z", "obj_qw", "obj_qx", "obj_qy", "obj_qz",
         "obj_hx", "obj_hy", "obj_hz", "obj_clearance",

@@ -26,6 +26,7 @@ from ..control import Workspace
 from ..robots import ENV_CONAFFINITY, ENV_CONTYPE
 from ..robots.parallel_gripper import OPEN_HALF_WIDTH, STROKE
 from ..scene import ContactMonitor
+from ..variation import VariedParts
 from .base import ForceTask, StartState, StepBlock, TaskSpec, TaskStatus
 
 SPEC = TaskSpec(
@@ -85,6 +86,7 @@ class PegInHoleTask(ForceTask):
         "insertion_depth",
     )  # fmt: skip
     sensor_names: ClassVar[tuple[str, ...]] = ("disc_pos",)
+    varied: ClassVar[VariedParts] = VariedParts(bodies=("peg",), tool_bodies=("disc",))
     success_test: ClassVar[str] = (
         f"disc centre <= {SUCCESS_LATERAL * 1e3:.0f} mm from the peg axis, bottom >= {SUCCESS_DEPTH * 1e3:.0f} mm "
         f"below the peg top, released for >= {RELEASE_TIME} s"

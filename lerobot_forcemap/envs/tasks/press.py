@@ -21,6 +21,7 @@ import numpy as np
 from ..control import Workspace
 from ..robots import ENV_CONAFFINITY, ENV_CONTYPE
 from ..scene import ContactMonitor
+from ..variation import VariedParts
 from .base import ForceTask, StartState, StepBlock, TaskSpec, TaskStatus
 
 SPEC = TaskSpec(
@@ -60,6 +61,7 @@ class PressTask(ForceTask):
         "button_x", "button_y", "button_z", "button_qw", "button_qx", "button_qy", "button_qz", "button_travel",
     )  # fmt: skip
     sensor_names: ClassVar[tuple[str, ...]] = ("button_pos",)
+    varied: ClassVar[VariedParts] = VariedParts(bodies=("button_base",), springs=("button_slide",))
     success_test: ClassVar[str] = (
         f"cap travel >= {SWITCH_TRAVEL * 1e3:.0f} mm (switch point), then released "
         f"(travel < {RELEASE_TRAVEL * 1e3:.0f} mm and contact force < {RELEASE_FORCE} N)"
