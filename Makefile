@@ -10,7 +10,12 @@ export OPENBLAS_NUM_THREADS ?= 1
 export OMP_NUM_THREADS ?= 1
 export MKL_NUM_THREADS ?= 1
 export MUJOCO_GL ?= egl
+# `make test` runs on PYTEST_WORKERS pytest-xdist workers (0: one process). `--dist loadfile` keeps a
+# test module on one worker, so its module-scoped fixtures (a recorded dataset, a fitted checkpoint) are
+# built once; the slow modules are spread over both cores.
+PYTEST_WORKERS ?= 2
 PYTEST_ARGS ?=
+XDIST := -n $(PYTEST_WORKERS) --dist loadfile
 
 .PHONY: venv test test-fast demo bench experiments learned-baselines datasets segmentation-experiment lint clean
 
@@ -26,11 +31,11 @@ $(VENV)/.installed: pyproject.toml constraints.txt setup.py lerobot_forcemap/elm
 # Tests never touch the network (HF_HUB_OFFLINE=1). pytest's exit code 5 (no tests collected)
 # is a failure here: a test run that found nothing must not look green.
 test: venv
-	@HF_HUB_OFFLINE=1 HF_DATASETS_OFFLINE=1 $(PY) -m pytest -q $(PYTEST_ARGS); rc=$$?; \
+	@HF_HUB_OFFLINE=1 HF_DATASETS_OFFLINE=1 $(PY) -m pytest -q $(XDIST) $(PYTEST_ARGS); rc=$$?; \
 	if [ $$rc -eq 5 ]; then echo "error: pytest collected no tests" >&2; exit 1; fi; exit $$rc
 
 test-fast: venv
-	@HF_HUB_OFFLINE=1 $(PY) -m pytest -q -m "not slow" $(PYTEST_ARGS); rc=$$?; \
+	@HF_HUB_OFFLINE=1 $(PY) -m pytest -q -m "not slow" $(XDIST) $(PYTEST_ARGS); rc=$$?; \
 	if [ $$rc -eq 5 ]; then echo "error: pytest collected no tests" >&2; exit 1; fi; exit $$rc
 
 demo: venv

@@ -5,14 +5,16 @@ from __future__ import annotations
 import json
 
 import pytest
-import torch
 
 from lerobot_forcemap.cli import main
 from lerobot_forcemap.cli.fit import make_config
-from lerobot_policy_forcemap.modeling_forcemap import SKILL_TENSORS, ForceMapPolicy
 
 
 def test_cli_fit_writes_a_loadable_checkpoint(press_dataset, press_checkpoint, tmp_path, capsys):
+    import torch
+
+    from lerobot_policy_forcemap.modeling_forcemap import SKILL_TENSORS, ForceMapPolicy
+
     out = tmp_path / "policy"
     assert main(["fit", "--dataset", str(press_dataset), "--out", str(out)]) == 0
     assert "checkpoint:" in capsys.readouterr().out
@@ -46,6 +48,8 @@ def test_cli_fit_writes_a_loadable_checkpoint(press_dataset, press_checkpoint, t
 
 
 def test_cli_fit_settings_and_episodes(press_dataset, tmp_path):
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     out = tmp_path / "multi"
     args = [
         "fit",

@@ -10,7 +10,11 @@ from lerobot_forcemap.cli import cli
 from lerobot_forcemap.data.segment import read_subtasks, write_segments
 from lerobot_forcemap.data.viz import visualize_episode
 
-pytest.importorskip("rerun")  # the viz extra (installed by make venv)
+
+@pytest.fixture(autouse=True, scope="module")
+def _rerun():
+    """The viz extra (installed by make venv); imported here, not at collection (it is slow to import)."""
+    pytest.importorskip("rerun")
 
 
 def read_rrd(path) -> dict[str, dict[str, list]]:

@@ -11,8 +11,6 @@ import pytest
 from lerobot_forcemap import layout
 from lerobot_forcemap.envs.record import EPISODES_FILE
 
-pytest.importorskip("lerobot")
-
 REPO = Path(__file__).resolve().parents[2]
 TASKS = ("grasp_push", "grasp_flip")
 

@@ -3,18 +3,21 @@
 import numpy as np
 import pytest
 
-pytest.importorskip("lerobot")
+from lerobot_forcemap import layout
 
-from lerobot.configs import FeatureType  # noqa: E402
-from lerobot.envs.configs import EnvConfig  # noqa: E402
-from lerobot.envs.factory import make_env, make_env_config  # noqa: E402
-from lerobot.envs.utils import env_to_policy_features, preprocess_observation  # noqa: E402
 
-import lerobot_env_forcemap  # noqa: E402,F401  (registers the env types)
-from lerobot_forcemap import layout  # noqa: E402
+@pytest.fixture(autouse=True, scope="module")
+def _registered():
+    """Imported here, not at the top: LeRobot's env factory is slow to import at collection."""
+    import lerobot_env_forcemap  # noqa: F401  (registers the env types)
 
 
 def test_grasp_env_types_and_features():
+    from lerobot.configs import FeatureType
+    from lerobot.envs.configs import EnvConfig
+    from lerobot.envs.factory import make_env_config
+    from lerobot.envs.utils import env_to_policy_features
+
     known = EnvConfig.get_known_choices()
     assert {"forcemap_grasp_push", "forcemap_grasp_flip"} <= set(known)
     cfg = make_env_config("forcemap_grasp_flip")
@@ -28,6 +31,9 @@ def test_grasp_env_types_and_features():
 
 
 def test_make_env_passes_the_object_and_delivers_finger_force():
+    from lerobot.envs.factory import make_env, make_env_config
+    from lerobot.envs.utils import preprocess_observation
+
     cfg = make_env_config("forcemap_grasp_push", object="apple")
     vec = make_env(cfg, n_envs=1)["forcemap_grasp_push"][0]
     try:

@@ -3,24 +3,28 @@
 import numpy as np
 import pytest
 
-pytest.importorskip("lerobot")
+from lerobot_forcemap import layout
 
-from lerobot.configs import FeatureType  # noqa: E402
-from lerobot.envs.configs import EnvConfig  # noqa: E402
-from lerobot.envs.factory import make_env, make_env_config  # noqa: E402
-from lerobot.envs.utils import env_to_policy_features, preprocess_observation  # noqa: E402
 
-import lerobot_policy_forcemap  # noqa: E402,F401  (the plugin entry point LeRobot imports)
-from lerobot_forcemap import layout  # noqa: E402
+@pytest.fixture(autouse=True, scope="module")
+def _registered():
+    """Imported here, not at the top: LeRobot's env factory is slow to import at collection."""
+    import lerobot_policy_forcemap  # noqa: F401  (the plugin entry point LeRobot imports; it registers the env types)
 
 
 def test_env_types_registered():
+    from lerobot.envs.configs import EnvConfig
+
     known = EnvConfig.get_known_choices()
     for name in ("forcemap_press", "forcemap_erase", "forcemap_peg_in_hole"):
         assert name in known
 
 
 def test_policy_features_include_force():
+    from lerobot.configs import FeatureType
+    from lerobot.envs.factory import make_env_config
+    from lerobot.envs.utils import env_to_policy_features
+
     cfg = make_env_config("forcemap_erase")
     feats = env_to_policy_features(cfg)
     assert feats[layout.OBS_FORCE].type is FeatureType.STATE and feats[layout.OBS_FORCE].shape == (6,)
@@ -34,6 +38,8 @@ def test_policy_features_include_force():
 @pytest.mark.parametrize("env_type", ["forcemap_press", "forcemap_grasp_flip"])
 def test_an_fps_other_than_the_control_rate_is_refused(env_type):
     # --env.fps used to be accepted and ignored: the simulation steps at 20 Hz whatever it says
+    from lerobot.envs.factory import make_env_config
+
     with pytest.raises(ValueError, match=r"fps: must be 20: the \w+ task runs at its control rate, got 10"):
         make_env_config(env_type, fps=10)
     assert make_env_config(env_type, fps=20).fps == 20
@@ -43,6 +49,8 @@ def test_an_fps_other_than_the_control_rate_is_refused(env_type):
 
 def test_env_config_fields_are_checked_when_the_config_is_made():
     # task used to pick another task's env under this config's features, fps and episode length
+    from lerobot.envs.factory import make_env_config
+
     with pytest.raises(
         ValueError, match="task: must be 'Press-v0': --env.type=forcemap_press runs that task.*got 'Erase-v0'"
     ):
@@ -65,6 +73,9 @@ def test_env_config_fields_are_checked_when_the_config_is_made():
 
 
 def test_make_env_and_preprocess_observation_deliver_force():
+    from lerobot.envs.factory import make_env, make_env_config
+    from lerobot.envs.utils import preprocess_observation
+
     cfg = make_env_config("forcemap_press")
     envs = make_env(cfg, n_envs=2)
     vec = envs["forcemap_press"][0]

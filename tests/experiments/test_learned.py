@@ -6,7 +6,6 @@ import json
 
 import numpy as np
 import pytest
-import torch
 
 from experiments.learned import run as learned_run
 from experiments.learned.baselines import (
@@ -15,11 +14,6 @@ from experiments.learned.baselines import (
     policy_config,
     result_document,
     train_command,
-)
-from lerobot_env_forcemap.env_state import (
-    EnvStateExtrasProcessorStep,
-    extended_env_state_names,
-    parse_env_state_extras,
 )
 from lerobot_forcemap import layout
 from tests.conftest import REPO_ROOT
@@ -31,6 +25,10 @@ SHIPPED = REPO_ROOT / "datasets"
 
 
 def test_parse_env_state_extras():
+    from lerobot_env_forcemap.env_state import (
+        parse_env_state_extras,
+    )
+
     assert parse_env_state_extras("ee_pose, force") == ("ee_pose", "force")
     assert parse_env_state_extras(["force"]) == ("force",)
     assert parse_env_state_extras("") == () and parse_env_state_extras(None) == ()
@@ -41,6 +39,10 @@ def test_parse_env_state_extras():
 
 
 def test_extended_names_order():
+    from lerobot_env_forcemap.env_state import (
+        extended_env_state_names,
+    )
+
     names = extended_env_state_names(
         ["a", "b"], ("force", "ee_pose"), {"force": ["fx"], "ee_pose": ["x", "y"]}
     )
@@ -49,6 +51,12 @@ def test_extended_names_order():
 
 @pytest.mark.parametrize("batched", [False, True])
 def test_processor_concatenates_in_order(batched):
+    import torch
+
+    from lerobot_env_forcemap.env_state import (
+        EnvStateExtrasProcessorStep,
+    )
+
     rng = np.random.default_rng(0)
     shape = (3,) if batched else ()
     env_state = torch.tensor(rng.normal(size=(*shape, 8)), dtype=torch.float32)
@@ -66,7 +74,12 @@ def test_processor_concatenates_in_order(batched):
 
 
 def test_processor_missing_key_and_features():
+    import torch
     from lerobot.configs import FeatureType, PipelineFeatureType, PolicyFeature
+
+    from lerobot_env_forcemap.env_state import (
+        EnvStateExtrasProcessorStep,
+    )
 
     step = EnvStateExtrasProcessorStep(extras=("force",))
     with pytest.raises(ValueError, match=r"observation\.force"):
@@ -87,6 +100,9 @@ def test_env_config_field_features_and_processors():
     from lerobot.envs.configs import EnvConfig
 
     import lerobot_env_forcemap  # noqa: F401
+    from lerobot_env_forcemap.env_state import (
+        EnvStateExtrasProcessorStep,
+    )
 
     cls = EnvConfig.get_choice_class("forcemap_press")
     plain = cls()

@@ -9,11 +9,6 @@ from unittest import mock
 
 import numpy as np
 import pytest
-import torch
-from safetensors.torch import load_file, save_file
-
-from lerobot_policy_forcemap.checkpoint import check_skill_values
-from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
 
 
 @pytest.fixture
@@ -38,6 +33,10 @@ def _drop_config_keys(path, *names):
 
 
 def test_loading_never_unpickles(ckpt):
+    import torch
+
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     boom = mock.Mock(side_effect=AssertionError("unpickling during load"))
     with (
         mock.patch.object(pickle, "load", boom),
@@ -50,6 +49,8 @@ def test_loading_never_unpickles(ckpt):
 
 
 def test_truncated_safetensors(ckpt):
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     path = ckpt / "model.safetensors"
     path.write_bytes(path.read_bytes()[:100])
     with pytest.raises(ValueError, match=r"model\.safetensors: not a readable safetensors file"):
@@ -57,6 +58,8 @@ def test_truncated_safetensors(ckpt):
 
 
 def test_config_and_tensors_that_do_not_belong_together(ckpt):
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     data = json.loads((ckpt / "config.json").read_text())
     n = list(data["segment_n_nodes"])
     n[0] += 1
@@ -70,6 +73,8 @@ def test_config_and_tensors_that_do_not_belong_together(ckpt):
 
 def test_absurd_node_count_is_refused_before_the_policy_is_built(ckpt):
     """The buffers are sized from config.json: a tampered count must fail on the weights' header, not allocate."""
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     data = json.loads((ckpt / "config.json").read_text())
     _edit_config(ckpt, segment_n_nodes=[10**10] + list(data["segment_n_nodes"])[1:])
     with (
@@ -82,6 +87,10 @@ def test_absurd_node_count_is_refused_before_the_policy_is_built(ckpt):
 
 
 def test_missing_tensor(ckpt):
+    from safetensors.torch import load_file, save_file
+
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     tensors = load_file(ckpt / "model.safetensors")
     del tensors["durations"]
     save_file(tensors, ckpt / "model.safetensors")
@@ -93,6 +102,10 @@ def test_missing_tensor(ckpt):
 
 
 def test_wrong_dtype(ckpt):
+    from safetensors.torch import load_file, save_file
+
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     tensors = load_file(ckpt / "model.safetensors")
     tensors["nodes"] = tensors["nodes"].float()
     save_file(tensors, ckpt / "model.safetensors")
@@ -104,6 +117,10 @@ def test_wrong_dtype(ckpt):
 
 
 def test_non_finite_values(ckpt):
+    from safetensors.torch import load_file, save_file
+
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     tensors = load_file(ckpt / "model.safetensors")
     tensors["node_times"][3] = float("nan")
     save_file(tensors, ckpt / "model.safetensors")
@@ -113,6 +130,10 @@ def test_non_finite_values(ckpt):
 
 def test_values_beyond_a_robots_reach_are_refused_by_file(ckpt):
     """Nodes multiplied by 1e300 loaded, then failed at the first select_action naming no file."""
+    from safetensors.torch import load_file, save_file
+
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     tensors = load_file(ckpt / "model.safetensors")
     tensors["nodes"] = tensors["nodes"] * 1e300
     save_file(tensors, ckpt / "model.safetensors")
@@ -175,6 +196,8 @@ def test_values_beyond_a_robots_reach_are_refused_by_file(ckpt):
     ],
 )
 def test_bad_config_json(ckpt, edit, message):
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     edit(ckpt)
     with pytest.raises(ValueError, match=message):
         ForceMapPolicy.from_pretrained(ckpt)
@@ -182,6 +205,10 @@ def test_bad_config_json(ckpt, edit, message):
 
 @pytest.mark.parametrize("name", ["anchor_poses", "anchor_initial_poses"])
 def test_anchor_poses_need_unit_quaternions(ckpt, name):
+    from safetensors.torch import load_file, save_file
+
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     tensors = load_file(ckpt / "model.safetensors")
     tensors[name][0] = 0.0
     save_file(tensors, ckpt / "model.safetensors")
@@ -192,6 +219,8 @@ def test_anchor_poses_need_unit_quaternions(ckpt, name):
 
 
 def test_value_checks_name_the_field():
+    from lerobot_policy_forcemap.checkpoint import check_skill_values
+
     cfg = mock.Mock(segment_n_nodes=[3], segment_n_gripper_nodes=[3])
     arrays = {
         "nodes": np.zeros((3, 3)),
@@ -207,6 +236,8 @@ def test_value_checks_name_the_field():
 
 
 def test_node_times_must_lie_in_their_segment():
+    from lerobot_policy_forcemap.checkpoint import check_skill_values
+
     cfg = mock.Mock(segment_n_nodes=[3], segment_n_gripper_nodes=[3])
     arrays = {
         "nodes": np.zeros((3, 3)),
@@ -241,6 +272,7 @@ def test_processor_steps_must_be_lerobot_processors(ckpt, tmp_path, step, messag
     """LeRobot imports and calls a step's "class" before checking it is a processor step: a pipeline
     file could run any callable. Refused before anything is built, for every loader."""
     from lerobot_forcemap.evaluation.evaluate import load_policy
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
 
     marker = tmp_path / "ran"
     step = json.loads(json.dumps(step).replace("{marker}", str(marker)))
@@ -258,6 +290,8 @@ def test_processor_steps_must_be_lerobot_processors(ckpt, tmp_path, step, messag
 
 def test_a_normalising_processor_step_is_refused_by_file(ckpt):
     """norm_map MEAN_STD in the saved pipeline gave a silent 23 mm error: the maps act on raw values."""
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     pipeline = json.loads((ckpt / "policy_preprocessor.json").read_text())
     norm = next(
         i for i, st in enumerate(pipeline["steps"]) if st.get("registry_name") == "normalizer_processor"
@@ -273,6 +307,11 @@ def test_a_normalising_processor_step_is_refused_by_file(ckpt):
 
 def test_a_non_finite_fps_or_dummy_is_refused(ckpt):
     """fps inf used to load and freeze the arm (clock at inf Hz); a NaN dummy made lerobot-train's loss NaN."""
+    import torch
+    from safetensors.torch import load_file, save_file
+
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     fitted_fps = json.loads((ckpt / "config.json").read_text())["fps"]
     _edit_config(ckpt, fps=float("inf"))
     with pytest.raises(ValueError, match=r"ForceMapConfig.fps: must be a finite number > 0 Hz, got inf"):
@@ -288,6 +327,8 @@ def test_a_non_finite_fps_or_dummy_is_refused(ckpt):
 def test_a_policy_loads_without_its_processors_with_a_warning(ckpt, caplog):
     """from_pretrained alone does not need them; lerobot-eval would call the checkpoint 'requiring
     migration' without naming the file, so the loader names it."""
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     (ckpt / "policy_preprocessor.json").unlink()
     with caplog.at_level("WARNING", logger="lerobot_policy_forcemap.checkpoint"):
         assert ForceMapPolicy.from_pretrained(ckpt).config.is_fitted
@@ -362,6 +403,8 @@ def test_fit_settings_given_at_load_are_refused_runtime_ones_apply(press_checkpo
 
 
 def test_a_missing_local_folder_is_named_as_such(tmp_path):
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     with pytest.raises(ValueError, match=r"nope/ckpt/x: no such checkpoint folder"):
         ForceMapPolicy.from_pretrained(tmp_path / "nope" / "ckpt" / "x")
     with pytest.raises(ValueError, match=r"\./ckpt: no such checkpoint folder"):
@@ -382,6 +425,8 @@ def test_a_config_edited_after_it_was_built_is_checked_at_load(ckpt):
     import copy
 
     from lerobot.configs import NormalizationMode
+
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
 
     config = copy.deepcopy(ForceMapPolicy.from_pretrained(ckpt).config)
     config.normalization_mapping["STATE"] = NormalizationMode.MEAN_STD  # no __post_init__ runs

@@ -5,12 +5,13 @@ from __future__ import annotations
 import os
 
 import pytest
-from lerobot.configs import NormalizationMode, PreTrainedConfig
-
-from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
 
 
 def test_registered_and_lerobot_defaults():
+    from lerobot.configs import NormalizationMode, PreTrainedConfig
+
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+
     assert PreTrainedConfig.get_choice_class("forcemap") is ForceMapConfig
     cfg = ForceMapConfig(device="cpu")
     assert cfg.type == "forcemap"
@@ -106,6 +107,8 @@ def test_registered_and_lerobot_defaults():
     ],
 )
 def test_bad_settings_name_the_field(kwargs, field):
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+
     with pytest.raises(ValueError, match=f"ForceMapConfig.{field}"):
         ForceMapConfig(device="cpu", **kwargs)
 
@@ -116,6 +119,7 @@ def test_a_partial_stream_dict_keeps_the_other_streams_defaults():
     from lerobot_policy_forcemap.configuration_forcemap import (
         DEFAULT_STREAM_THRESHOLDS,
         DEFAULT_STREAM_WEIGHTS,
+        ForceMapConfig,
     )
 
     cfg = ForceMapConfig(
@@ -129,6 +133,7 @@ def test_a_partial_stream_dict_keeps_the_other_streams_defaults():
 def test_default_stream_thresholds_are_the_authors():
     """SPEC §2 the authors' UR5e thresholds: joints 0.20, Cartesian 0.25, wrist force 0.15, gripper 0.10."""
     from lerobot_forcemap.data.segment import STREAM_THRESHOLDS
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
 
     want = {"position": 0.25, "wrist_force": 0.15, "joints": 0.20, "gripper": 0.10, "finger_force": 0.15}
     assert ForceMapConfig(device="cpu").stream_thresholds == want  # finger force takes the wrist force's
@@ -136,7 +141,7 @@ def test_default_stream_thresholds_are_the_authors():
 
 
 def test_fit_settings_are_every_setting_but_the_runtime_ones():
-    from lerobot_policy_forcemap.configuration_forcemap import RUNTIME_FIELDS
+    from lerobot_policy_forcemap.configuration_forcemap import RUNTIME_FIELDS, ForceMapConfig
 
     fit = set(ForceMapConfig.fit_field_names())
     assert {"stiffness", "episodes", "stream_weights", "segment_overrides", "anchor_radius"} <= fit
@@ -149,6 +154,8 @@ def test_fit_settings_are_every_setting_but_the_runtime_ones():
 
 
 def test_skill_params_apply_overrides_to_one_segment():
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+
     cfg = ForceMapConfig(
         device="cpu",
         stiffness=3000.0,
@@ -165,7 +172,7 @@ def test_skill_params_hold_every_fit_setting_of_the_config():
     from dataclasses import fields
 
     from lerobot_forcemap.skill.params import RULES, SkillParams
-    from lerobot_policy_forcemap.configuration_forcemap import RUNTIME_FIELDS
+    from lerobot_policy_forcemap.configuration_forcemap import RUNTIME_FIELDS, ForceMapConfig
 
     def flat(params: SkillParams) -> dict:
         groups = [getattr(params, f.name) for f in fields(SkillParams) if f.name != "segment_overrides"]
@@ -182,6 +189,10 @@ def test_skill_params_hold_every_fit_setting_of_the_config():
 
 
 def test_json_round_trip_keeps_every_field(tmp_path):
+    from lerobot.configs import PreTrainedConfig
+
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+
     cfg = ForceMapConfig(
         device="cpu",
         episodes=[0, 3],
@@ -228,6 +239,8 @@ def test_lerobot_train_names_the_field_draccus_would_hide(tmp_path):
 def test_a_bad_config_from_python_is_raised_and_logged_once(caplog):
     """The log line is what LeRobot's scripts show (they print only draccus' wrapper); from Python the
     raised error says the same once more."""
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+
     with caplog.at_level("ERROR"), pytest.raises(ValueError, match="ForceMapConfig.n_nodes"):
         ForceMapConfig(device="cpu", n_nodes=-5)
     assert [r.getMessage() for r in caplog.records] == [

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import torch
 
 from tests.conftest import REPO_ROOT
 
@@ -24,6 +23,7 @@ def _policy(**kw):
 
 
 def _episode(policy, env, seed: int) -> dict:
+    import torch
     from lerobot.envs.utils import preprocess_observation
 
     obs, info = env.reset(seed=seed)

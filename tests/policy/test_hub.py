@@ -9,10 +9,7 @@ from pathlib import Path
 from unittest import mock
 
 import pytest
-import torch
 from huggingface_hub import ModelCard
-
-from lerobot_policy_forcemap.modeling_forcemap import SKILL_TENSORS, ForceMapPolicy
 
 REPO = "someone/forcemap-press"
 
@@ -60,7 +57,10 @@ def hub(tmp_path):
 
 
 def test_push_then_load_from_the_hub(press_checkpoint, hub):
+    import torch
     from lerobot.policies.factory import make_pre_post_processors
+
+    from lerobot_policy_forcemap.modeling_forcemap import SKILL_TENSORS, ForceMapPolicy
 
     policy = ForceMapPolicy.from_pretrained(press_checkpoint)
     policy.push_to_hub(REPO)
@@ -91,6 +91,8 @@ def test_lerobot_train_style_push(press_checkpoint, hub):
     from lerobot.configs.default import DatasetConfig
     from lerobot.configs.train import TrainPipelineConfig
 
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     policy = ForceMapPolicy.from_pretrained(press_checkpoint)
     policy.config.repo_id = REPO
     cfg = TrainPipelineConfig(dataset=DatasetConfig(repo_id="local/press"), policy=policy.config)
@@ -101,6 +103,8 @@ def test_lerobot_train_style_push(press_checkpoint, hub):
 
 
 def test_missing_repo_is_a_clear_error(hub):
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     with pytest.raises(ValueError, match="someone/does-not-exist: the repo has no config.json"):
         ForceMapPolicy.from_pretrained("someone/does-not-exist")
 
@@ -114,6 +118,8 @@ def _upload(press_checkpoint, hub, repo=REPO):
 def test_a_hub_checkpoint_gets_the_local_checks(press_checkpoint, hub):
     """A config missing a fitted field, or a pipeline naming an arbitrary class, is refused from the
     Hub as from a folder (the Hub path used to load them with today's defaults)."""
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     remote = _upload(press_checkpoint, hub)
     config = json.loads((remote / "config.json").read_text())
     del config["lam"]
@@ -151,6 +157,8 @@ def _offline_cache_without(hub, missing: str):
 
 
 def test_an_offline_cache_without_the_weights_names_the_file(press_checkpoint, hub):
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     _upload(press_checkpoint, hub)
     with _offline_cache_without(hub, "model.safetensors"):
         with pytest.raises(
@@ -162,6 +170,8 @@ def test_an_offline_cache_without_the_weights_names_the_file(press_checkpoint, h
 def test_a_hub_checkpoint_without_a_pipeline_is_reported_once(press_checkpoint, hub, caplog):
     """Missing from the repo, or from an offline cache: one warning saying which and why (the fetch's),
     not a second one about the same file in the cache folder."""
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     (_upload(press_checkpoint, hub) / "policy_postprocessor.json").unlink()
     with caplog.at_level("WARNING", logger="lerobot_policy_forcemap.checkpoint"):
         ForceMapPolicy.from_pretrained(REPO)
@@ -184,7 +194,10 @@ def test_a_hub_checkpoint_without_a_pipeline_is_reported_once(press_checkpoint, 
 def test_forcemap_push_cli_sends_a_loadable_policy(press_checkpoint, tmp_path, hub, capsys):
     """``forcemap push --policy``: config, weights, both processors, the fit report and a card in one
     commit to one model repo, loadable back."""
+    import torch
+
     from lerobot_forcemap.cli import main
+    from lerobot_policy_forcemap.modeling_forcemap import SKILL_TENSORS, ForceMapPolicy
 
     ckpt = tmp_path / "ckpt"
     shutil.copytree(press_checkpoint, ckpt)

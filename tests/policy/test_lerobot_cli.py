@@ -9,7 +9,6 @@ import sys
 from pathlib import Path
 
 import pytest
-import torch
 
 pytestmark = pytest.mark.slow
 
@@ -52,6 +51,8 @@ def trained(press_dataset, tmp_path_factory):
 
 
 def test_lerobot_train_fits_and_saves_the_same_maps(trained, press_checkpoint):
+    import torch
+
     from lerobot_policy_forcemap.modeling_forcemap import SKILL_TENSORS, ForceMapPolicy
 
     assert {"config.json", "model.safetensors", "policy_preprocessor.json", "train_config.json"} <= {

@@ -4,15 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import torch
 
-from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
-from lerobot_policy_forcemap.modeling_forcemap import SKILL_TENSORS, ForceMapPolicy
 from tests.conftest import fit_and_save
 
 
 def _scene(button=(0.5, 0.0, 0.027), tcp=(0.42, 0.0, 0.15), batch=1):
     """A LeRobot-style observation batch of the press task (tool pointing down)."""
+    import torch
+
     q = [0.0, 1.0, 0.0, 0.0]
     obs = {
         "observation.ee_pose": torch.tensor([[*tcp, *q]] * batch, dtype=torch.float32),
@@ -27,10 +26,14 @@ def _scene(button=(0.5, 0.0, 0.027), tcp=(0.42, 0.0, 0.15), batch=1):
 
 @pytest.fixture(scope="module")
 def policy(press_checkpoint):
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     return ForceMapPolicy.from_pretrained(press_checkpoint)
 
 
 def test_fit_fills_the_config_and_buffer_shapes(policy):
+    import torch
+
     cfg = policy.config
     assert cfg.is_fitted and cfg.fps == 20.0 and cfg.episodes == [0]
     assert len(cfg.segment_n_nodes) == cfg.n_segments == len(cfg.segment_anchors)
@@ -45,6 +48,8 @@ def test_fit_fills_the_config_and_buffer_shapes(policy):
 
 
 def test_select_action_streams_the_reproduction_and_matches_chunks(policy):
+    import torch
+
     obs = _scene()
     policy.reset()
     chunk = policy.predict_action_chunk(obs)
@@ -61,6 +66,8 @@ def test_select_action_streams_the_reproduction_and_matches_chunks(policy):
 
 
 def test_batch_elements_are_placed_in_their_own_scenes(policy):
+    import torch
+
     a, b = _scene(button=(0.49, -0.01, 0.027)), _scene(button=(0.52, 0.015, 0.027), tcp=(0.41, 0.004, 0.152))
     both = {k: torch.cat([a[k], b[k]]) for k in a}
     policy.reset()
@@ -76,6 +83,11 @@ def test_batch_elements_are_placed_in_their_own_scenes(policy):
 
 
 def test_save_load_round_trip_is_bit_exact(policy, tmp_path):
+    import torch
+
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+    from lerobot_policy_forcemap.modeling_forcemap import SKILL_TENSORS, ForceMapPolicy
+
     policy.save_pretrained(tmp_path)
     back = ForceMapPolicy.from_pretrained(tmp_path)
     for name in SKILL_TENSORS:
@@ -92,6 +104,8 @@ def test_save_load_round_trip_is_bit_exact(policy, tmp_path):
 
 def test_forward_is_a_diagnostic_loss_without_gradient_effect(policy):
     """The loss is the distance (m) from each sample's target position to the path placed in its scene."""
+    import torch
+
     button = np.array([0.5, 0.0, 0.027])
     seg = next(s for s in policy.skill.segments if s.anchor == "button")  # nodes in the button's frame
     on_path = button + seg.nodes[len(seg.nodes) // 2]
@@ -116,6 +130,10 @@ def test_forward_is_a_diagnostic_loss_without_gradient_effect(policy):
 
 
 def test_a_second_training_step_says_it_changes_nothing(press_checkpoint, caplog):
+    import torch
+
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     fitted = ForceMapPolicy.from_pretrained(press_checkpoint)  # a fresh one: it counts its forward calls
     batch = _scene()
     batch["action"] = torch.tensor([[0.5, 0.0, 0.04, 0.0, 1.0, 0.0, 0.0, 1.0]])
@@ -130,6 +148,9 @@ def test_a_second_training_step_says_it_changes_nothing(press_checkpoint, caplog
 
 
 def test_missing_observation_and_unfitted_policy_are_clear_errors(policy):
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     obs = _scene()
     del obs["observation.environment_state"]
     policy.reset()
@@ -150,6 +171,8 @@ def test_missing_observation_and_unfitted_policy_are_clear_errors(policy):
 def test_a_pose_of_the_wrong_shape_or_dtype_is_refused(policy):
     # a stacked (batch, steps, 7) pose used to be flattened and its first step read as the robot pose,
     # an (batch, 8) one cut to 7, an integer one read as whole metres
+    import torch
+
     obs = _scene()
     bad = {
         "stacked": (
@@ -201,6 +224,11 @@ def test_an_env_of_another_task_is_refused(policy):
 def test_control_fps_sets_the_rate_at_which_the_skill_advances(press_checkpoint):
     """A skill fitted at 20 fps, called at 40 Hz: the 2k-th call is where the k-th call at 20 Hz was
     (a real 50 fps demonstration in the 20 Hz sim is the same case, the other way round)."""
+    import torch
+
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     obs = _scene()
     plain = ForceMapPolicy.from_pretrained(press_checkpoint)
     fast = ForceMapPolicy.from_pretrained(press_checkpoint)
@@ -225,6 +253,7 @@ def test_a_checkpoint_is_not_refitted_on_another_tasks_dataset(press_checkpoint,
     from lerobot.configs.policies import PreTrainedConfig
     from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
 
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
     from tests.conftest import REPO_ROOT
 
     cfg = PreTrainedConfig.from_pretrained(press_checkpoint)
@@ -247,6 +276,9 @@ def test_a_fitted_field_given_before_the_fit_is_refused(press_dataset, field, va
     """``lerobot-train --policy.fps=50`` used to be overwritten by the fit without a word."""
     from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
 
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     cfg = ForceMapConfig(**{field: value})
     with pytest.raises(
         ValueError,
@@ -256,6 +288,10 @@ def test_a_fitted_field_given_before_the_fit_is_refused(press_dataset, field, va
 
 
 def test_multi_episode_fit_with_dataset_phases(press_dataset, tmp_path):
+    import torch
+
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     pol = fit_and_save(
         press_dataset,
         tmp_path / "multi",
@@ -284,6 +320,8 @@ def test_multi_episode_auto_segments_must_agree(press_dataset, tmp_path):
 
 def test_forward_rows_and_reduction_are_checked(policy):
     """An (4, 8) action with (2, ...) observations was reshaped to (2, 16) and read as two targets."""
+    import torch
+
     batch = _scene(batch=2)
     batch["action"] = torch.zeros(4, 8)
     with pytest.raises(ValueError, match=r"forward: 'action' has 4 rows, the observations \[2\]"):
@@ -303,6 +341,8 @@ def test_forward_rows_and_reduction_are_checked(policy):
 
 
 def test_odd_tensors_are_read_or_refused_by_name(policy):
+    import torch
+
     obs = _scene()
     policy.reset()
     ref = policy.select_action(obs)
@@ -328,6 +368,10 @@ def test_odd_tensors_are_read_or_refused_by_name(policy):
 
 
 def test_the_maps_stay_float64_and_load_state_dict_checks_them(press_checkpoint):
+    import torch
+
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     fitted = ForceMapPolicy.from_pretrained(press_checkpoint)
     nodes = fitted.get_buffer("nodes").clone()
     fitted.half()  # cast the maps to float16 silently (0.2 mm), and the saved file failed to load
@@ -345,6 +389,8 @@ def test_the_maps_stay_float64_and_load_state_dict_checks_them(press_checkpoint)
 def test_a_refused_observation_at_a_segment_start_still_reanchors_on_retry(press_checkpoint):
     """The segment counter advanced before the observation was checked: a NaN at a segment start,
     retried with a good observation, skipped that segment's re-anchoring for the rest of the episode."""
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     fitted = ForceMapPolicy.from_pretrained(press_checkpoint)
     starts = np.cumsum([0.0, *fitted.skill.durations])[1:-1]
     anchored = [s + 1 for s, t in enumerate(starts) if fitted.skill.segments[s + 1].anchor]

@@ -4,13 +4,18 @@ tested in ``tests/skill/test_reanchoring.py``)."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pytest
-import torch
 
-from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
-from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
 from tests.skill.helpers import GRASP_NAMES, TOOL_DOWN, push_grasp_episode
+
+if TYPE_CHECKING:
+    import torch
+
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
 
 FPS = 20.0
 BOX = np.array([0.45, 0.0, 0.02])
@@ -20,10 +25,14 @@ APPROACH, PUSHING, REACH, GRASP, LIFT = range(5)
 
 
 def _config(**kw) -> ForceMapConfig:
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+
     return ForceMapConfig(device="cpu", **{"segments": "dataset", "anchor_by_moved_object": True, **kw})
 
 
 def _batch(tcp, box) -> dict[str, torch.Tensor]:
+    import torch
+
     return {
         "observation.ee_pose": torch.tensor([[*tcp, *TOOL_DOWN]], dtype=torch.float32),
         "observation.environment_state": torch.tensor(
@@ -51,6 +60,8 @@ def _run_policy(policy: ForceMapPolicy, box_at_reset, box_after_push) -> tuple[n
 
 @pytest.mark.parametrize("online", [True, False])
 def test_the_policy_reanchors_a_segment_when_it_starts(online):
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     policy = ForceMapPolicy(_config(reanchor_online=online))
     policy.fit_episodes([push_grasp_episode(box=BOX, wall=WALL, push=PUSH)], FPS, GRASP_NAMES)
     skill = policy.skill

@@ -7,7 +7,6 @@ import json
 
 import numpy as np
 import pytest
-import torch
 
 pytestmark = pytest.mark.slow
 
@@ -39,6 +38,7 @@ def _demo_figures(dataset):
 
 
 def _run(env, policy, pre, post, obs, max_steps=200):
+    import torch
     from lerobot.envs.utils import preprocess_observation
 
     policy.reset()

@@ -2,20 +2,10 @@
 
 from __future__ import annotations
 
-import torch
-from lerobot.policies.factory import make_pre_post_processors
-from lerobot.processor import PolicyProcessorPipeline
-from lerobot.processor.converters import (
-    batch_to_transition,
-    policy_action_to_transition,
-    transition_to_batch,
-    transition_to_policy_action,
-)
-
-from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
-
 
 def _obs():
+    import torch
+
     return {
         "observation.ee_pose": torch.tensor([0.42, 0.01, 0.15, 0.0, 1.0, 0.0, 0.0]),
         "observation.environment_state": torch.tensor([0.5, 0.0, 0.027, 1.0, 0.0, 0.0, 0.0, 0.0]),
@@ -25,6 +15,11 @@ def _obs():
 
 
 def test_resolved_by_lerobot_and_identity(press_checkpoint):
+    import torch
+    from lerobot.policies.factory import make_pre_post_processors
+
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     policy = ForceMapPolicy.from_pretrained(press_checkpoint)
     pre, post = make_pre_post_processors(policy.config)  # no path: imports processor_forcemap by convention
     names = [type(s).__name__ for s in pre.steps]
@@ -50,6 +45,15 @@ def test_resolved_by_lerobot_and_identity(press_checkpoint):
 
 
 def test_saved_processors_load_with_lerobot_eval_overrides(press_checkpoint):
+    import torch
+    from lerobot.processor import PolicyProcessorPipeline
+    from lerobot.processor.converters import (
+        batch_to_transition,
+        policy_action_to_transition,
+        transition_to_batch,
+        transition_to_policy_action,
+    )
+
     pre = PolicyProcessorPipeline.from_pretrained(
         press_checkpoint,
         config_filename="policy_preprocessor.json",
