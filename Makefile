@@ -25,7 +25,7 @@ $(VENV)/.installed: pyproject.toml constraints.txt setup.py lerobot_forcemap/elm
 	@if [ -z "$(PYTHON312)" ]; then echo "error: python3.12 not found (set PYTHON312=/path/to/python3.12)" >&2; exit 1; fi
 	@[ -x $(PY) ] || $(PYTHON312) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade "pip>=24"
-	$(PY) -m pip install -q -c constraints.txt -e ".[dev,bench,viz]"
+	$(PY) -m pip install -q -c constraints.txt -e ".[dev,bench,viz,ray]"
 	@touch $@
 
 # Tests never touch the network (HF_HUB_OFFLINE=1). pytest's exit code 5 (no tests collected)
