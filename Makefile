@@ -41,7 +41,7 @@ test-fast: venv
 demo: venv
 	HF_HUB_OFFLINE=1 $(PY) -m lerobot_forcemap.cli.demo --out outputs/demo
 
-BENCHMARKS := bench_elmap bench_clarabel_polish bench_segmentation bench_envs bench_env_step bench_policy_fit bench_fit_e2e
+BENCHMARKS := bench_elmap bench_clarabel_polish bench_segmentation bench_envs bench_env_step bench_policy_fit bench_fit_e2e bench_dataset_fit
 bench: venv
 	for b in $(BENCHMARKS); do $(PY) -m benchmarks.$$b || exit 1; done
 
