@@ -25,7 +25,7 @@ $(VENV)/.installed: pyproject.toml constraints.txt setup.py lerobot_forcemap/elm
 	@if [ -z "$(PYTHON312)" ]; then echo "error: python3.12 not found (set PYTHON312=/path/to/python3.12)" >&2; exit 1; fi
 	@[ -x $(PY) ] || $(PYTHON312) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade "pip>=24"
-	$(PY) -m pip install -q -c constraints.txt -e ".[dev,bench,viz]"
+	$(PY) -m pip install -q -c constraints.txt -e ".[dev,bench,viz,ray]"
 	@touch $@
 
 # Tests never touch the network (HF_HUB_OFFLINE=1). pytest's exit code 5 (no tests collected)
@@ -41,7 +41,7 @@ test-fast: venv
 demo: venv
 	HF_HUB_OFFLINE=1 $(PY) -m lerobot_forcemap.cli.demo --out outputs/demo
 
-BENCHMARKS := bench_elmap bench_clarabel_polish bench_segmentation bench_envs bench_env_step bench_policy_fit bench_fit_e2e
+BENCHMARKS := bench_elmap bench_clarabel_polish bench_segmentation bench_envs bench_env_step bench_policy_fit bench_fit_e2e bench_dataset_fit
 bench: venv
 	for b in $(BENCHMARKS); do $(PY) -m benchmarks.$$b || exit 1; done
 

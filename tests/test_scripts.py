@@ -19,6 +19,7 @@ from tests.conftest import REPO_ROOT
 
 #: script -> (arguments, a line fragment its output must hold, the real recording it reads or None)
 RUNS = {
+    "bench_dataset_fit": (["--episodes", "4", "--fit", "2"], "| 2 |", None),
     "bench_policy_fit": (["--runs", "1", "--no-train"], "one-shot total", None),
     "bench_fit_e2e": (["--runs", "1", "--episodes", "1", "--datasets", "datasets/press"], "| press | ", None),
     "bench_clarabel_polish": (
@@ -89,6 +90,11 @@ BAD_FLAGS = [
     ("bench_env_step", ["--runs", "0"], "--runs: must be an integer >= 1, got 0"),
     ("env_tracking_error", ["--steps", "0"], "--steps: must be an integer >= 1, got 0"),
     ("bench_envs", ["--cores", "-1"], "--cores: must be an integer >= 0 and <= "),
+    (
+        "bench_dataset_fit",
+        ["--fit", "5", "--episodes", "4"],
+        "--fit: must be an integer >= 1 and <= 4, got 5",
+    ),
     ("bench_policy_fit", ["--runs", "0"], "--runs: must be an integer >= 1, got 0"),
     ("bench_policy_fit", ["--dataset", "{tmp}"], "not a LeRobot dataset"),
     ("bench_fit_e2e", ["--runs", "0"], "--runs: must be an integer >= 1, got 0"),

@@ -58,7 +58,7 @@ def run_cells(cells: list[Cell], s: Settings, desc: str) -> None:
             if j.key() not in seen:
                 seen.add(j.key())
                 jobs.append(j)
-    results = run_jobs(jobs, s.workdir, workers=s.workers, force=s.force, desc=desc, runner=s.runner)
+    results = run_jobs(jobs, s.workdir, s.executor, force=s.force, desc=desc, stats=s.stats)
     by_key = {r["key"]: r for r in results}
     for c in cells:
         c.results = [by_key[j.key()] for j in c.jobs]

@@ -100,8 +100,12 @@ class Settings:
     results: Path = RESULTS
     learned_dir: Path = LEARNED_DIR
     workers: int = 1
+    ray: bool = False
+    ray_address: str | None = None
     force: bool = False
-    runner: Any = field(default=None, compare=False, repr=False)  # a paper.JobRunner shared by the stages
+    # the executor the stages share (lerobot_forcemap.executor) and what ran on it (jobs.JobStats)
+    executor: Any = field(default=None, compare=False, repr=False)
+    stats: Any = field(default=None, compare=False, repr=False)
 
     def quick_version(self) -> Settings:
         return replace(

@@ -1,11 +1,14 @@
-"""The paper's experiments as jobs on fixed seeds, run in worker processes with a record cache.
+"""The paper's experiments as jobs on fixed seeds, run by an executor with a record cache.
 
 A :class:`Job` is one method reproducing one demonstration of one task on a list of env seeds
-(``rollouts.run_job`` says what it computes). :class:`JobRunner` / :func:`run_jobs` run jobs in
-``workers`` spawned processes and cache each job's result as
+(``rollouts.run_job`` says what it computes). :func:`run_jobs` runs jobs on a
+:mod:`lerobot_forcemap.executor` (this process, a process pool, or Ray) and caches each job's result as
 ``workdir/raw/<code fingerprint>/<job key>.json``: the fingerprint (:func:`code_fingerprint`) hashes
 the code and data a record depends on, so a change to any of them re-runs the jobs instead of reusing
-stale numbers; :func:`prune_stale_caches` removes the caches of other code versions.
+stale numbers; :func:`prune_stale_caches` removes the caches of other code versions. The cache earns
+its keep: a full run takes minutes of rollouts while the report, tables and analysis built from the
+records re-run in seconds, and tuning, the tables and the ablations share jobs (each runs once). On
+Ray, ``workdir`` must be a folder every node can reach.
 """
 
 from __future__ import annotations
@@ -20,12 +23,13 @@ from pathlib import Path
 from typing import Any
 
 from lerobot_forcemap._validation import check_choice, check_int, check_int_list
+from lerobot_forcemap.executor import Executor
 
 __all__ = [
     "EVAL_SEEDS",
     "TUNE_SEEDS",
     "Job",
-    "JobRunner",
+    "JobStats",
     "run_jobs",
     "code_fingerprint",
     "prune_stale_caches",
@@ -179,97 +183,42 @@ def _run_job_cached(args: tuple[Job, str, bool]) -> dict[str, Any]:
     return out
 
 
-def _worker_init() -> None:
-    """One torch thread per worker (the environment variables are set by ``import experiments``)."""
-    try:
-        import torch
+@dataclass
+class JobStats:
+    """What :func:`run_jobs` did: jobs returned (cached ones included), cached ones, and the CPU time
+    (s) of the jobs that ran, summed over the workers."""
 
-        torch.set_num_threads(1)
-    except ImportError:  # pragma: no cover
-        pass
-
-
-class JobRunner:
-    """Runs jobs in ``workers`` processes (spawned once, reused across calls; ``workers <= 1`` runs in
-    this process). Use as a context manager, or call :meth:`close`."""
-
-    def __init__(self, workers: int = 1):
-        self.workers = int(workers)
-        self._pool = None
-        self.n_jobs = 0  # jobs returned by run() so far, cached ones included
-        self.n_cached = 0
-        self.cpu_s = 0.0  # CPU time of the jobs that ran (not cached), summed over the processes
-
-    def __enter__(self) -> JobRunner:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
-
-    def close(self) -> None:
-        if self._pool is not None:
-            self._pool.close()
-            self._pool.join()
-            self._pool = None
-
-    def _get_pool(self):
-        if self._pool is None:
-            import multiprocessing as mp
-
-            self._pool = mp.get_context("spawn").Pool(self.workers, initializer=_worker_init)
-        return self._pool
-
-    def run(
-        self, jobs: Iterable[Job], workdir: str | Path, *, force: bool = False, desc: str = "jobs"
-    ) -> list[dict[str, Any]]:
-        """Run jobs (cached as ``workdir/raw/<code fingerprint>/<key>.json``; ``force`` re-runs the
-        episodes); results in the order of ``jobs``. A tqdm bar counts episodes; duplicated jobs run once."""
-        from tqdm.auto import tqdm
-
-        jobs = list(jobs)
-        unique: dict[str, Job] = {}
-        for j in jobs:
-            unique.setdefault(j.key(), j)
-        order = list(unique)
-        args = [(unique[k], str(workdir), force) for k in order]
-        done: dict[str, dict[str, Any]] = {}
-        total = sum(len(j.seeds) for j in unique.values())
-        with tqdm(total=total, desc=desc, unit="ep") as bar:
-            if self.workers <= 1:
-                _worker_init()
-                for k, a in zip(order, args, strict=True):
-                    done[k] = _run_job_cached(a)
-                    bar.update(len(a[0].seeds))
-            else:
-                for i, out in self._get_pool().imap_unordered(_indexed, list(enumerate(args)), chunksize=1):
-                    done[order[i]] = out
-                    bar.update(len(args[i][0].seeds))
-        for out in done.values():
-            self.n_jobs += 1
-            if out.get("cached"):
-                self.n_cached += 1
-            else:
-                self.cpu_s += float(out.get("cpu_s") or 0.0)
-        return [done[j.key()] for j in jobs]
+    n_jobs: int = 0
+    n_cached: int = 0
+    cpu_s: float = 0.0
 
 
 def run_jobs(
     jobs: Iterable[Job],
     workdir: str | Path,
+    executor: Executor,
     *,
-    workers: int = 1,
     force: bool = False,
     desc: str = "jobs",
-    runner: JobRunner | None = None,
+    stats: JobStats | None = None,
 ) -> list[dict[str, Any]]:
-    """:meth:`JobRunner.run` with ``runner`` (kept open by the caller) or a runner of ``workers`` made
-    for this call."""
-    if runner is not None:
-        return runner.run(jobs, workdir, force=force, desc=desc)
-    with JobRunner(workers) as r:
-        return r.run(jobs, workdir, force=force, desc=desc)
-
-
-def _indexed(item: tuple[int, tuple[Job, str, bool]]) -> tuple[int, dict[str, Any]]:
-    i, a = item
-    return i, _run_job_cached(a)
+    """Run ``jobs`` on ``executor`` (cached as ``workdir/raw/<code fingerprint>/<key>.json``; ``force``
+    re-runs the episodes); results in the order of ``jobs``, duplicated jobs run once. A tqdm bar
+    counts episodes; ``stats`` (if given) adds up what ran."""
+    jobs = list(jobs)
+    unique: dict[str, Job] = {}
+    for j in jobs:
+        unique.setdefault(j.key(), j)
+    args = [(job, str(workdir), force) for job in unique.values()]
+    results = executor.map(
+        _run_job_cached, args, desc=desc, unit="ep", weights=[len(a[0].seeds) for a in args]
+    )
+    done = dict(zip(unique, results, strict=True))
+    if stats is not None:
+        for out in results:
+            stats.n_jobs += 1
+            if out.get("cached"):
+                stats.n_cached += 1
+            else:
+                stats.cpu_s += float(out.get("cpu_s") or 0.0)
+    return [done[j.key()] for j in jobs]

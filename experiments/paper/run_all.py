@@ -1,6 +1,6 @@
 """``make experiments``: the paper's experiments (§IV) in simulation, end to end.
 
-    .venv/bin/python -m experiments.paper [--workers 2] [--only tune table2 peg grasp ablations]
+    .venv/bin/python -m experiments.paper [--workers 2] [--ray | --ray-address ADDR] [--only tune table2 peg grasp ablations]
                                                     [--quick --out /tmp/x] [--force]
 
 Stages (each module's docstring has the details and the protocol is in ``common.py``):
@@ -37,6 +37,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from experiments.paper.targets import targets
+from lerobot_forcemap import executor
 from lerobot_forcemap._validation import check_int, usage_errors
 
 from .common import GRASP_TASKS, RESULTS, WORKDIR, Settings
@@ -49,18 +50,20 @@ EVALUATION_STAGES = ("table2", "peg", "grasp", "ablations")
 
 
 def run(settings: Settings, stages: tuple[str, ...] = STAGES) -> dict:
-    """Run the stages and write the report; returns the experiments document. Uses ``settings.runner``
-    (a ``JobRunner``) or makes one of ``settings.workers`` processes for the run."""
-    from experiments.paper.jobs import JobRunner
+    """Run the stages and write the report; returns the experiments document. Uses
+    ``settings.executor`` or makes one for the run (``settings.workers``, ``ray``, ``ray_address``)."""
+    from experiments.paper.jobs import JobStats
 
-    if settings.runner is not None:
+    if settings.stats is None:
+        settings = replace(settings, stats=JobStats())
+    if settings.executor is not None:
         return _run(settings, stages)
-    with JobRunner(settings.workers) as runner:
-        return _run(replace(settings, runner=runner), stages)
+    with executor.make_executor(settings.workers, ray=settings.ray, ray_address=settings.ray_address) as ex:
+        return _run(replace(settings, executor=ex), stages)
 
 
 def _run(settings: Settings, stages: tuple[str, ...]) -> dict:
-    """The stages (module docstring) with ``settings.runner``; returns the experiments document."""
+    """The stages (module docstring) with ``settings.executor``; returns the experiments document."""
     from experiments.paper.jobs import code_fingerprint, prune_stale_caches
 
     s = settings
@@ -194,16 +197,16 @@ def _runtime(clock: _Clock, s: Settings, stages: tuple[str, ...]) -> dict:
     ``last_full_run`` (what `make experiments` costs), which cached re-runs report too."""
     from experiments.paper.jobs import code_fingerprint
 
-    runner = s.runner
+    stats = s.stats
     runtime: dict = {
         "stages": clock.stages,
-        "cpu_s": clock.cpu_s() + (runner.cpu_s if s.workers > 1 else 0.0),
+        "cpu_s": clock.cpu_s() + (stats.cpu_s if s.executor.kind != "serial" else 0.0),
         "cpu_note": "CPU of the main process plus the CPU the workers spent on the jobs they ran",
         "total_s": time.perf_counter() - clock.t0,
         "workers": s.workers,
         "machine": f"{platform.machine()}, {os.cpu_count()} CPUs (shared), Python {platform.python_version()}",
-        "jobs": runner.n_jobs,
-        "cached_jobs": runner.n_cached,
+        "jobs": stats.n_jobs,
+        "cached_jobs": stats.n_cached,
     }
     full_path = s.workdir / ("last_full_run_quick.json" if s.quick else "last_full_run.json")
     if runtime["jobs"] and runtime["cached_jobs"] == 0 and set(stages) == set(STAGES):
@@ -277,7 +280,7 @@ def _ordered(records: list[dict]) -> list[dict]:
 def main(argv: list[str] | None = None) -> int:
     """``python -m experiments.paper`` (module docstring)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    executor.add_arguments(parser, workers=2)
     parser.add_argument("--only", nargs="+", choices=STAGES, default=list(STAGES), help="stages to run")
     parser.add_argument("--quick", action="store_true", help="smoke-test size (needs --out)")
     parser.add_argument("--out", default=None, help="results folder (default results/)")
@@ -295,6 +298,8 @@ def main(argv: list[str] | None = None) -> int:
         )
     s = Settings(
         workers=args.workers,
+        ray=args.ray,
+        ray_address=args.ray_address,
         force=args.force,
         results=Path(args.out) if args.out else RESULTS,
         workdir=Path(args.workdir)

@@ -100,9 +100,8 @@ class _Batch:
 
     def run(self, desc: str) -> None:
         flat = [j for js in self.jobs.values() for j in js]
-        out = run_jobs(
-            flat, self.s.workdir, force=self.s.force, desc=desc, runner=self.s.runner, workers=self.s.workers
-        )
+        s = self.s
+        out = run_jobs(flat, s.workdir, s.executor, force=s.force, desc=desc, stats=s.stats)
         by_key = {r["key"]: r for r in out}
         self.results = {n: _records([by_key[j.key()] for j in js]) for n, js in self.jobs.items()}
 

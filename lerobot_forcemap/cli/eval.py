@@ -59,11 +59,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="observation keys appended to environment_state before the policy, e.g. ee_pose,force "
         "(ACT / Diffusion checkpoints trained on a derived dataset; lerobot-eval: --env.env_state_extras)",
     )
+    from lerobot_forcemap import executor
+
+    executor.add_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
+    from lerobot_forcemap import executor
     from lerobot_forcemap.evaluation.demonstrations import demonstration_records
-    from lerobot_forcemap.evaluation.evaluate import default_dataset, evaluate_policy, evaluation_document
+    from lerobot_forcemap.evaluation.evaluate import default_dataset, evaluation_document
 
     out = Path(args.json)
     _check_outputs(args, out)
@@ -76,19 +80,8 @@ def run(args: argparse.Namespace) -> int:
         demonstration_records(dataset, trace=args.trace, task=args.task) if dataset is not None else None
     )
     _check_pipelines(Path(args.policy))
-    records = evaluate_policy(
-        args.policy,
-        args.task,
-        args.episodes,
-        args.seed,
-        trace=args.trace,
-        video_dir=args.video_dir,
-        n_videos=1 if args.videos is None else args.videos,
-        device=args.device,
-        env_state_extras=args.env_state_extras,
-        object_name=args.object,
-        randomize=args.randomize,
-    )
+    with executor.from_args(args) as ex:
+        records = _evaluate(args, ex)
     doc = evaluation_document(
         args.policy,
         args.task,
@@ -155,3 +148,22 @@ def _print_summary(doc: dict, task: str, obj: str | None) -> None:
 def _signed_pct(value: float | None) -> str:
     """``+12%``; ``n/a`` where the demonstrations' figure was 0 (stored as null)."""
     return "n/a" if value is None else f"{value:+.0f}%"
+
+
+def _evaluate(args: argparse.Namespace, ex) -> list[dict]:
+    from lerobot_forcemap.evaluation.evaluate import evaluate_policy
+
+    return evaluate_policy(
+        args.policy,
+        args.task,
+        args.episodes,
+        args.seed,
+        trace=args.trace,
+        video_dir=args.video_dir,
+        n_videos=1 if args.videos is None else args.videos,
+        device=args.device,
+        env_state_extras=args.env_state_extras,
+        object_name=args.object,
+        randomize=args.randomize,
+        executor=ex,
+    )

@@ -1,6 +1,9 @@
 """``forcemap fit``: fit a forcemap policy from a LeRobot dataset and save a checkpoint.
 
     forcemap fit --dataset datasets/press --out outputs/press_policy [--episodes 0 1 ...] [--set stiffness=2500 ...]
+    forcemap fit --dataset datasets/press --all-episodes --out outputs/press_skills [--workers 2 | --ray]
+
+``--all-episodes`` fits one skill per episode into a library folder (``cli/fit_dataset.py``).
 
 Runs in-process the code path of ``lerobot-train --policy.type=forcemap --steps=1`` (LeRobot 0.6.1):
 ``make_policy(config, ds_meta=...)`` builds the policy, whose constructor segments and fits the chosen
@@ -159,11 +162,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dataset", required=True, help="LeRobot dataset folder (e.g. datasets/press)")
     parser.add_argument("--repo-id", default=None, help="dataset repo id (default local/<folder name>)")
     parser.add_argument("--out", required=True, help="checkpoint folder to write (pretrained_model layout)")
-    parser.add_argument(
+    which = parser.add_mutually_exclusive_group()
+    which.add_argument(
         "--episodes", type=int, nargs="+", default=None, help="episodes to learn from (default: 0)"
+    )
+    which.add_argument(
+        "--all-episodes",
+        action="store_true",
+        help="one skill per episode: --out becomes a library of checkpoint folders + index.json",
     )
     add_set_argument(parser)
     parser.add_argument("--overwrite", action="store_true", help="replace a non-empty --out")
+    from lerobot_forcemap import executor
+
+    executor.add_arguments(parser)  # used by --all-episodes
 
 
 def add_set_argument(parser: argparse.ArgumentParser) -> None:
@@ -180,6 +192,8 @@ def add_set_argument(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.all_episodes:
+        return _run_all_episodes(args)
     result = fit_policy(
         args.dataset,
         args.out,
@@ -197,3 +211,36 @@ def run(args: argparse.Namespace) -> int:
         )
     print(f"checkpoint: {result.out}  (fit {result.fit_s:.3f} s, save {result.save_s:.3f} s)")
     return 0
+
+
+def _run_all_episodes(args: argparse.Namespace) -> int:
+    """``--all-episodes``: the library, then one line per episode and the counts."""
+    from lerobot_forcemap import executor
+    from lerobot_forcemap.cli.fit_dataset import INDEX_FILE, fit_dataset
+
+    with executor.from_args(args) as ex:
+        index = fit_dataset(
+            args.dataset,
+            args.out,
+            ex,
+            repo_id=args.repo_id,
+            overrides=args.overrides,
+            overwrite=args.overwrite,
+        )
+    for row in index["episodes"]:
+        print(_episode_line(row))
+    counts = index["counts"]
+    print(
+        f"{counts['ok']} of {index['total_episodes']} episode(s) fitted ({counts['refused']} refused, "
+        f"{counts['failed']} failed): {Path(args.out) / INDEX_FILE}"
+    )
+    return 0
+
+
+def _episode_line(row: dict[str, Any]) -> str:
+    head = f"  episode {row['episode']}: {row['status']}"
+    if row["status"] != "ok":
+        return f"{head}: {row['reason']}"
+    stops = ", ".join(s["stop_reason"] for s in row["segments"])
+    events = "" if row["events"] is None else f"; events at frames {row['events']}"
+    return f"{head}, {row['n_segments']} segment(s) (EM stop: {stops}){events} -> {row['folder']}"

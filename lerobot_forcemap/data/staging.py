@@ -33,20 +33,24 @@ from pathlib import Path
 __all__ = ["check_output", "partial_dir", "replace_dir", "edit_dir"]
 
 
-def check_output(out: str | Path, *, overwrite: bool) -> Path:
-    """``out`` as a Path, after checking that a new dataset may be written there (``ValueError`` if not)."""
+def check_output(
+    out: str | Path, *, overwrite: bool, marker: str = "meta/info.json", what: str = "LeRobot dataset"
+) -> Path:
+    """``out`` as a Path, after checking that a new dataset may be written there (``ValueError`` if not).
+    ``--overwrite`` replaces an empty folder or a folder holding the file ``marker``, what makes it a
+    ``what`` (another kind of output written all or nothing: e.g. ``index.json``, "skill library")."""
     out = Path(out)
     if not out.exists():
         return out
     if not overwrite:
         raise ValueError(f"output {out} exists; give --overwrite (overwrite=True) to replace it")
     if not out.is_dir():
-        raise ValueError(f"output {out} is a file, not a dataset folder; not replacing it")
+        raise ValueError(f"output {out} is a file, not a {what} folder; not replacing it")
     _refuse_current_folder(out, "output", "pick another --out")
-    if not (out / "meta" / "info.json").is_file() and any(out.iterdir()):
+    if not (out / marker).is_file() and any(out.iterdir()):
         raise ValueError(
-            f"output {out} is not a LeRobot dataset (no meta/info.json) and not empty; --overwrite only "
-            "replaces datasets: remove it yourself or pick another --out"
+            f"output {out} is not a {what} (no {marker}) and not empty; --overwrite only "
+            f"replaces a {what}: remove it yourself or pick another --out"
         )
     return out
 

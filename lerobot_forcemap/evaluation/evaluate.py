@@ -24,6 +24,7 @@ import functools
 import json
 import sys
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +40,7 @@ from lerobot_forcemap.evaluation.records import (
     trace_row,
 )
 from lerobot_forcemap.evaluation.stats import percent_change, summarize
+from lerobot_forcemap.executor import Executor
 from lerobot_forcemap.jsonfile import read_json_object
 
 __all__ = [
@@ -46,7 +48,9 @@ __all__ = [
     "load_policy",
     "lerobot_actor",
     "rollout",
+    "EvalJob",
     "evaluate_policy",
+    "run_episodes",
     "evaluation_document",
     "default_dataset",
     "write_video",
@@ -214,6 +218,25 @@ def rollout(
     return record
 
 
+@dataclass(frozen=True)
+class EvalJob:
+    """Episodes ``episodes`` (indices; env seed ``seed + i``) of one policy in one task: a job of an
+    :mod:`lerobot_forcemap.executor` (what :func:`evaluate_policy` hands its workers)."""
+
+    policy_path: str
+    task: str
+    episodes: tuple[int, ...]
+    seed: int
+    trace: bool = False
+    video_dir: str | None = None
+    n_videos: int = 1
+    device: str = "cpu"
+    env_state_extras: str | tuple[str, ...] | None = None
+    object_name: str | None = None
+    randomize: str = "paper"
+    progress: bool = False
+
+
 def evaluate_policy(
     policy_path: str | Path,
     task: str,
@@ -228,6 +251,7 @@ def evaluate_policy(
     env_state_extras: str | Sequence[str] | None = None,
     object_name: str | None = None,
     randomize: str = "paper",
+    executor: Executor | None = None,
 ) -> list[dict[str, Any]]:
     """Records of ``episodes`` episodes (env seeds seed .. seed+episodes-1); videos of the first ``n_videos``.
 
@@ -237,29 +261,76 @@ def evaluate_policy(
     ``lerobot_env_forcemap/env_state.py``). A checkpoint whose environment_state size differs from
     the env's (after the extras) raises ValueError. ``object_name``: the grasping tasks' object (e.g. an
     unseen ``"apple"``; default: the demonstration object). ``randomize``: the env's randomisation level
-    (``"none"``, ``"paper"``, ``"wide"``: ``lerobot_forcemap/envs/variation.py``)."""
-    from tqdm.auto import tqdm
-
-    from lerobot_forcemap.envs import make
+    (``"none"``, ``"paper"``, ``"wide"``: ``lerobot_forcemap/envs/variation.py``). ``executor``: runs the
+    episodes in contiguous blocks, one per worker, each loading the policy once (default: all in this
+    process); the records are the same either way (each episode depends only on its seed)."""
     from lerobot_forcemap.envs.registration import object_kwargs
 
     check_int("--episodes", episodes, low=1)
     check_int("--seed", seed, low=0)  # gymnasium's own error names no flag
     check_int("--videos", n_videos, low=0)
-    env_kwargs = object_kwargs(task, object_name, "--object")  # checked before the policy loads
-    policy, pre, post = load_policy(policy_path, device)
-    _match_control_rate(policy, task)
-    want_video = video_dir is not None and n_videos > 0
-    env = make(task, render_mode="rgb_array" if want_video else None, randomize=randomize, **env_kwargs)
+    object_kwargs(task, object_name, "--object")  # checked before the policy loads
+    extras = (
+        env_state_extras
+        if env_state_extras is None or isinstance(env_state_extras, str)
+        else tuple(env_state_extras)
+    )
+    job = EvalJob(
+        str(policy_path),
+        task,
+        tuple(range(episodes)),
+        seed,
+        trace=trace,
+        video_dir=None if video_dir is None else str(video_dir),
+        n_videos=n_videos,
+        device=device,
+        env_state_extras=extras,
+        object_name=object_name,
+        randomize=randomize,
+        progress=progress,
+    )
+    if executor is None or executor.kind == "serial":
+        return run_episodes(job)
+    return _run_blocks(job, executor, progress)
+
+
+def _run_blocks(job: EvalJob, executor: Executor, progress: bool) -> list[dict[str, Any]]:
+    """``job``'s episodes on ``executor``: one contiguous block per worker, records in episode order."""
+    n = len(job.episodes)
+    blocks = [b.tolist() for b in np.array_split(np.arange(n), min(n, executor.workers))]
+    jobs = [replace(job, episodes=tuple(b), progress=False) for b in blocks]
+    weights = [len(b) for b in blocks]
+    done = executor.map(
+        run_episodes, jobs, desc=f"eval {job.task}", unit="episode", weights=weights, progress=progress
+    )
+    return [rec for block in done for rec in block]
+
+
+def run_episodes(job: EvalJob) -> list[dict[str, Any]]:
+    """The records of ``job``'s episodes, rolled out here: the policy loaded once, one env."""
+    from tqdm.auto import tqdm
+
+    from lerobot_forcemap.envs import make
+    from lerobot_forcemap.envs.registration import object_kwargs
+
+    env_kwargs = object_kwargs(job.task, job.object_name, "--object")
+    policy, pre, post = load_policy(job.policy_path, job.device)
+    _match_control_rate(policy, job.task)
+    want_video = job.video_dir is not None and job.n_videos > 0
+    env = make(
+        job.task, render_mode="rgb_array" if want_video else None, randomize=job.randomize, **env_kwargs
+    )
     records = []
     try:
-        env_pre = _env_preprocessor(task, env, policy, env_state_extras)
-        for i in tqdm(range(episodes), desc=f"eval {task}", unit="episode", disable=not progress):
-            frames = [] if want_video and i < n_videos else None
-            rec = rollout(env, policy, pre, post, seed + i, trace=trace, frames=frames, env_pre=env_pre)
+        env_pre = _env_preprocessor(job.task, env, policy, job.env_state_extras)
+        for i in tqdm(job.episodes, desc=f"eval {job.task}", unit="episode", disable=not job.progress):
+            frames = [] if want_video and i < job.n_videos else None
+            rec = rollout(
+                env, policy, pre, post, job.seed + i, trace=job.trace, frames=frames, env_pre=env_pre
+            )
             rec["episode"] = i
             if frames:
-                video = Path(video_dir) / f"eval_episode_{i}.mp4"
+                video = Path(job.video_dir) / f"eval_episode_{i}.mp4"
                 rec["video"] = str(write_video(frames, video, env.metadata["render_fps"]))
             records.append(rec)
     finally:

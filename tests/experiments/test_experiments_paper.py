@@ -15,9 +15,10 @@ from experiments.paper.demos import (
     reanchor_actions,
     segmentation_score,
 )
-from experiments.paper.jobs import Job, JobRunner, code_fingerprint
+from experiments.paper.jobs import Job, JobStats, code_fingerprint, run_jobs
 from experiments.paper.rollouts import fit_key
 from lerobot_forcemap import layout
+from lerobot_forcemap.executor import make_executor
 from lerobot_forcemap.geometry import quat_multiply, quat_rotate
 from tests.conftest import REPO_ROOT
 
@@ -115,8 +116,10 @@ def test_jobs_run_cache_and_share_one_fit(tmp_path):
     )
     ours = Job("press", "ours", "forcemap", 0, (1000,), overrides=("stiffness=2000",))
     ours_again = Job("press", "again", "forcemap", 0, (1001,), overrides=("stiffness=2000",))
-    with JobRunner(1) as runner:
-        out = runner.run([hybrid, ours, ours_again, hybrid], tmp_path, desc="test")
+    stats = JobStats()
+    with make_executor(1) as ex:
+        out = run_jobs([hybrid, ours, ours_again, hybrid], tmp_path, ex, desc="test", stats=stats)
+        assert (stats.n_jobs, stats.n_cached) == (3, 0)  # the repeated job ran once
         assert [o["key"] for o in out] == [hybrid.key(), ours.key(), ours_again.key(), hybrid.key()]
         for o in out[:3]:
             rec = o["records"][0]
@@ -130,5 +133,6 @@ def test_jobs_run_cache_and_share_one_fit(tmp_path):
         assert out[1]["fit"]["checkpoint"] == out[2]["fit"]["checkpoint"]  # one fit for both
         fit = out[1]["fit"]  # what segmentation_score reads: the demo's changepoints and the window
         assert fit["demo"] == 0 and fit["changepoints"][0] == 0 and fit["segmentation_window_frames"] == 8
-        again = runner.run([ours], tmp_path, desc="test")[0]
+        again = run_jobs([ours], tmp_path, ex, desc="test", stats=stats)[0]
+        assert (stats.n_jobs, stats.n_cached) == (4, 1)
         assert again["cached"] and again["records"] == out[1]["records"]
