@@ -24,6 +24,7 @@ from __future__ import annotations
 import logging
 import warnings
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +35,7 @@ from lerobot.policies.pretrained import PreTrainedPolicy
 from torch import Tensor, nn
 
 from lerobot_forcemap._validation import check_array, fail
+from lerobot_forcemap.data.force_schema import resolve_wrench
 from lerobot_forcemap.data.hub import check_repo_id
 from lerobot_forcemap.data.reader import read_episodes, to_meta
 from lerobot_forcemap.skill.episodes import EpisodeArrays, episodes_from_columns, needed_columns
@@ -66,7 +68,8 @@ _HUB_KWARGS = ("force_download", "token", "cache_dir", "local_files_only", "revi
 def load_episodes(dataset: Any, config: ForceMapConfig) -> tuple[list[EpisodeArrays], dict, float, list[str]]:
     """Read ``config.episodes`` of a LeRobot dataset (a folder, a ``LeRobotDatasetMetadata`` or a
     ``DatasetMeta``: see ``lerobot_forcemap.data.reader.to_meta``); returns (episodes, features, fps,
-    the task strings of those episodes)."""
+    the task strings of those episodes). The force is where ``config.force_key`` points, found in any
+    of the schemas of ``lerobot_forcemap.data.force_schema``."""
     episodes, features, fps, tasks, _ = _load(dataset, config)
     return episodes, features, fps, tasks
 
@@ -74,11 +77,20 @@ def load_episodes(dataset: Any, config: ForceMapConfig) -> tuple[list[EpisodeArr
 def _load(dataset: Any, config: ForceMapConfig):
     """:func:`load_episodes` plus the measured TCP positions ``(T, 3)`` of the first episode (from
     ``robot_pose_key``; None when the dataset has none)."""
+    meta = to_meta(dataset)
+    source = resolve_wrench(meta.features, config.force_key, name="ForceMapConfig.force_key")
     params = config.skill_params()
-    columns = [*needed_columns(params), config.robot_pose_key]
-    data = read_episodes(dataset, config.episodes, columns, name="ForceMapConfig.episodes")
-    episodes = episodes_from_columns(data.columns, data.features, params, config.episodes)
-    measured = _measured_positions(data.columns, config.robot_pose_key, config.episodes[0])
+    if source is not None and source.spec != params.columns.force_key:
+        logger.info("forcemap fit: the wrench is %s", source.describe())
+        params = replace(params, columns=replace(params.columns, force_key=source.spec))
+    wanted = [*needed_columns(params), *(source.columns if source else ()), config.robot_pose_key]
+    data = read_episodes(meta, config.episodes, wanted, name="ForceMapConfig.episodes")
+    columns, features = data.columns, data.features
+    if source is not None and source.spec not in columns:  # three entries of a wider feature
+        columns = {**columns, source.spec: source.force(columns)}
+        features = {**features, source.spec: {"dtype": "float32", "shape": (3,), "names": ["fx", "fy", "fz"]}}
+    episodes = episodes_from_columns(columns, features, params, config.episodes)
+    measured = _measured_positions(columns, config.robot_pose_key, config.episodes[0])
     return episodes, data.features, data.fps, data.tasks, measured
 
 
