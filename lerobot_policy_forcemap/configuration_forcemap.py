@@ -114,8 +114,8 @@ class ForceMapConfig(PreTrainedConfig):
         robot_pose_key: the current end-effector pose ``[x y z qw qx qy qz]`` at reset (the start of
             the reproduction is moved to it).
         episodes: the demonstrations to learn from (default ``[0]``: one shot); several are mapped
-            together segment by segment. LeRobot's ``--dataset.episodes`` filters its data loader,
-            which the closed-form fit does not use.
+            together segment by segment. Under ``lerobot-train``, ``--dataset.episodes`` chooses them
+            when this is left at its default (``train_hooks.py``).
         segments, segment_column, stream_weights, stream_thresholds, segmentation_window_s,
             segmentation_mode, changepoints, segmentation_seed, min_segment_s: segmentation
             (``skill.params.Segmentation``).

@@ -5,8 +5,9 @@ Closed-form "training" (LeRobot 0.6.1, ``scripts/lerobot_train.py``): ``make_pol
 policy with ``dataset_meta``; the constructor then reads the chosen episodes, segments them and fits
 the maps (``lerobot_forcemap.skill.fit``), fills the fitted sizes into the config and keeps the result
 as float64 persistent buffers, which ``save_pretrained`` writes to ``model.safetensors``.
-``lerobot-train --policy.type=forcemap --steps=1`` therefore fits and saves a checkpoint; the
-optimiser sees one dummy parameter with learning rate 0. Loading (``from_pretrained``,
+``lerobot-train --policy.type=forcemap`` therefore fits and saves a checkpoint; the optimiser sees one
+dummy parameter with learning rate 0, and the run ends after step 1 (``train_hooks.py``, which also
+makes ``--dataset.episodes`` choose the demonstrations). Loading (``from_pretrained``,
 ``lerobot-eval --policy.path``) builds the buffers from the config's fitted sizes and checks the
 files first (``checkpoint.py``).
 
@@ -56,6 +57,7 @@ from lerobot_policy_forcemap.checkpoint import (
     read_config_json,
 )
 from lerobot_policy_forcemap.configuration_forcemap import RUNTIME_FIELDS, ForceMapConfig, config_error_detail
+from lerobot_policy_forcemap.train_hooks import end_after_fit, episodes_to_fit, running_train_config
 
 __all__ = ["ForceMapPolicy", "SKILL_TENSORS", "load_episodes"]
 
@@ -121,7 +123,12 @@ class ForceMapPolicy(PreTrainedPolicy):
         self._forward_calls = 0  # training steps seen: the second one says it changes nothing
         if dataset_meta is not None and config.pretrained_path is None:
             config.check_unfitted()
+            train_config = running_train_config()  # under lerobot-train: its --dataset.episodes, --steps
+            if train_config is not None:
+                config.episodes = episodes_to_fit(config.episodes, train_config.dataset.episodes)
             self.fit_dataset(dataset_meta)  # what lerobot-train or forcemap fit already read
+            if train_config is not None:
+                end_after_fit(train_config)
         else:
             if dataset_meta is not None:
                 _refuse_another_task(config, dataset_meta)
