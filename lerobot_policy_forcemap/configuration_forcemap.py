@@ -79,6 +79,7 @@ FITTED_FIELDS = (
     "demo_stiffness",
     "demo_depth",
     "n_force_profile",
+    "packed_features",
 )
 #: most actions one predict_action_chunk call returns (an hour at 100 Hz; a typo of 10**7 would allocate GBs)
 MAX_CHUNK_SIZE = 360_000
@@ -159,6 +160,9 @@ class ForceMapConfig(PreTrainedConfig):
             went along the contact normal past the first contact; 0: unknown), n_force_profile (frames of the expected
             force profile): filled in by the fit (leave them at their defaults); the checkpoint's
             tensors take their shapes from them.
+        packed_features: filled in by the fit: ``{feature: positions in observation.state}`` of the
+            features a ``lerobot-record`` dataset packed into ``observation.state``; observations are
+            unpacked the same way while acting (``lerobot_forcemap.data.packed_state``).
         normalization_mapping: IDENTITY for every feature type: the maps work on raw values.
     """
 
@@ -235,6 +239,7 @@ class ForceMapConfig(PreTrainedConfig):
     demo_stiffness: float = 0.0
     demo_depth: float = 0.0
     n_force_profile: int = 0
+    packed_features: dict[str, list[int]] = field(default_factory=dict)
     check_task: bool = True
     control_fps: float | None = None
 

@@ -35,9 +35,11 @@ from huggingface_hub.constants import SAFETENSORS_SINGLE_FILE
 from lerobot.policies.pretrained import PreTrainedPolicy
 from torch import Tensor, nn
 
+from lerobot_forcemap import layout
 from lerobot_forcemap._validation import check_array, fail
 from lerobot_forcemap.data.force_schema import resolve_wrench
 from lerobot_forcemap.data.hub import check_repo_id
+from lerobot_forcemap.data.packed_state import packed_plan, unpack_columns, unpack_features, unpack_rows
 from lerobot_forcemap.data.reader import read_episodes, to_meta
 from lerobot_forcemap.skill.episodes import EpisodeArrays, episodes_from_columns, needed_columns
 from lerobot_forcemap.skill.feedback import FeedbackGains, ForceFeedback, ForceProfile, force_profile
@@ -70,8 +72,9 @@ _HUB_KWARGS = ("force_download", "token", "cache_dir", "local_files_only", "revi
 def load_episodes(dataset: Any, config: ForceMapConfig) -> tuple[list[EpisodeArrays], dict, float, list[str]]:
     """Read ``config.episodes`` of a LeRobot dataset (a folder, a ``LeRobotDatasetMetadata`` or a
     ``DatasetMeta``: see ``lerobot_forcemap.data.reader.to_meta``); returns (episodes, features, fps,
-    the task strings of those episodes). The force is where ``config.force_key`` points, found in any
-    of the schemas of ``lerobot_forcemap.data.force_schema``."""
+    the task strings of those episodes). Features packed into ``observation.state`` (a dataset of
+    ``lerobot-record``) are unpacked (``data.packed_state``); the force is where ``config.force_key``
+    points, in any of the schemas of ``data.force_schema``."""
     episodes, features, fps, tasks, _ = _load(dataset, config)
     return episodes, features, fps, tasks
 
@@ -80,20 +83,23 @@ def _load(dataset: Any, config: ForceMapConfig):
     """:func:`load_episodes` plus the measured TCP positions ``(T, 3)`` of the first episode (from
     ``robot_pose_key``; None when the dataset has none)."""
     meta = to_meta(dataset)
-    source = resolve_wrench(meta.features, config.force_key, name="ForceMapConfig.force_key")
+    plan = packed_plan(meta.features)
+    features = unpack_features(meta.features, plan)
+    source = resolve_wrench(features, config.force_key, name="ForceMapConfig.force_key")
     params = config.skill_params()
     if source is not None and source.spec != params.columns.force_key:
         logger.info("forcemap fit: the wrench is %s", source.describe())
         params = replace(params, columns=replace(params.columns, force_key=source.spec))
     wanted = [*needed_columns(params), *(source.columns if source else ()), config.robot_pose_key]
+    wanted = [layout.OBS_STATE if k in plan else k for k in wanted]
     data = read_episodes(meta, config.episodes, wanted, name="ForceMapConfig.episodes")
-    columns, features = data.columns, data.features
+    columns = unpack_columns(data.columns, plan)
     if source is not None and source.spec not in columns:  # three entries of a wider feature
-        columns = {**columns, source.spec: source.force(columns)}
-        features = {**features, source.spec: {"dtype": "float32", "shape": (3,), "names": ["fx", "fy", "fz"]}}
+        columns[source.spec] = source.force(columns)
+        features[source.spec] = {"dtype": "float32", "shape": (3,), "names": ["fx", "fy", "fz"]}
     episodes = episodes_from_columns(columns, features, params, config.episodes)
     measured = _measured_positions(columns, config.robot_pose_key, config.episodes[0])
-    return episodes, data.features, data.fps, data.tasks, measured
+    return episodes, features, data.fps, data.tasks, measured
 
 
 class ForceMapPolicy(PreTrainedPolicy):
@@ -142,6 +148,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         episodes, features, fps, tasks, measured = _load(dataset, self.config)
         env_key = self.config.env_state_key
         names = list(features[env_key].get("names") or []) if env_key in features else []
+        self.config.packed_features = packed_plan(to_meta(dataset).features)
         return self.fit_episodes(episodes, fps, names, tasks, measured=measured)
 
     def fit_episodes(
@@ -370,6 +377,7 @@ class ForceMapPolicy(PreTrainedPolicy):
 
     def _run_for(self, batch: dict[str, Any]) -> SkillRun:
         """This episode's run: placed on its first observation, re-anchored as its segments start."""
+        batch = unpack_rows(batch, self.config.packed_features)
         n = _batch_size(batch)
         if self._run is None:
             self._run = self._start(batch, n)
@@ -459,6 +467,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         """Diagnostic loss: distance (m) of the demonstrated target positions to the fitted path placed
         in each sample's scene (objects from its environment state; no gradient flows to the maps)."""
         cfg, skill = self.config, self.skill
+        batch = unpack_rows(batch, cfg.packed_features)
         self._forward_calls += 1
         if self._forward_calls == 2 and self.training:
             # lerobot-train's default is 100k steps, each only this diagnostic (about 50 min on a laptop CPU)
