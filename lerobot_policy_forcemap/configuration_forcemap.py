@@ -312,6 +312,10 @@ class ForceMapConfig(PreTrainedConfig):
                 f"name anchor objects with a position (<obj>_x/_y/_z) in {where}",
                 unknown,
             )
+        for key, index in self.packed_features.items():  # positions in observation.state
+            check_int_list(
+                f"ForceMapConfig.packed_features[{key!r}]", index, low=0, non_empty=False, distinct=True
+            )
         if beyond := sorted(int(k) for k in self.segment_overrides if not 0 <= int(k) < n):
             fail("ForceMapConfig.segment_overrides", f"name segments of the fit (0..{n - 1})", beyond)
 
