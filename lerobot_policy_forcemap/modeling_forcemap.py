@@ -321,6 +321,7 @@ class ForceMapPolicy(PreTrainedPolicy):
     @torch.no_grad()
     def predict_action_chunk(self, batch: dict[str, Tensor], **kwargs: Any) -> Tensor:
         """The next ``chunk_size`` targets ``(B, chunk_size, 8)`` from the current time (does not advance it)."""
+        batch = unpack_rows(batch, self.config.packed_features)
         run = self._run_for(batch)
         times = (self._step + np.arange(self.config.chunk_size)) / self.clock_hz
         actions = run.actions_at(times)
@@ -331,6 +332,7 @@ class ForceMapPolicy(PreTrainedPolicy):
     @torch.no_grad()
     def select_action(self, batch: dict[str, Tensor], **kwargs: Any) -> Tensor:
         """The target ``(B, 8)`` at t = k / clock_hz for the k-th call since ``reset``."""
+        batch = unpack_rows(batch, self.config.packed_features)
         run = self._run_for(batch)
         actions = run.actions_at(np.array([self._step / self.clock_hz]))[:, 0]
         feedback = self._feedback_for(batch, len(actions))
@@ -377,7 +379,6 @@ class ForceMapPolicy(PreTrainedPolicy):
 
     def _run_for(self, batch: dict[str, Any]) -> SkillRun:
         """This episode's run: placed on its first observation, re-anchored as its segments start."""
-        batch = unpack_rows(batch, self.config.packed_features)
         n = _batch_size(batch)
         if self._run is None:
             self._run = self._start(batch, n)

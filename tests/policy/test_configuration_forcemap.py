@@ -249,6 +249,8 @@ def test_a_bad_config_from_python_is_raised_and_logged_once(caplog):
 
 
 def test_packed_features_are_positions_in_the_state():
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+
     fitted = dict(
         n_segments=1, segment_n_nodes=[5], segment_n_gripper_nodes=[5], segment_anchors=[""], fps=20.0
     )
