@@ -128,3 +128,7 @@ DEMO_PHASE: Final = "demo_phase"
 # EPISODES_FILE: per-episode env statistics of a recording (`meta/<EPISODES_FILE>`): the outcome and the
 # force figures at physics rate, comparable with evaluated episodes.
 EPISODES_FILE: Final = "forcemap_episodes.json"
+UNITS[CONTACT_FORCE] = (
+    "N, base frame, reaction on the robot (the simulator's low-passed summed contact force)"
+)
+UNITS[DEMO_PHASE] = "index of the scripted demonstrator's phase (names in the dataset card)"

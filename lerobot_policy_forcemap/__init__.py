@@ -1,12 +1,13 @@
 """LeRobot policy plugin `forcemap` (discovered by LeRobot through the distribution name).
 
 Importing this package registers the ``forcemap`` policy config (``ForceMapConfig``) and also the env
-types of `lerobot_env_forcemap`, which LeRobot's plugin discovery would not import on its own (it
+types of `lerobot_env_forcemap` and the robot / teleoperator types of `lerobot_robot_forcemap`, which LeRobot's plugin discovery would not import on its own (it
 imports distributions by name only). The policy class and the processors are resolved by LeRobot from
 the config's module name (``configuration_forcemap`` -> ``modeling_forcemap`` / ``processor_forcemap``).
 """
 
 import lerobot_env_forcemap  # noqa: F401  (registers forcemap_* EnvConfigs and gym ids)
+import lerobot_robot_forcemap  # noqa: F401  (registers the forcemap_ur5e_sim robot, forcemap_scripted teleop)
 from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
 
 __all__ = ["ForceMapConfig", "ForceMapPolicy", "make_forcemap_pre_post_processors"]

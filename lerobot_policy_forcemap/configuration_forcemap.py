@@ -79,6 +79,7 @@ FITTED_FIELDS = (
     "demo_stiffness",
     "demo_depth",
     "n_force_profile",
+    "packed_features",
 )
 #: most actions one predict_action_chunk call returns (an hour at 100 Hz; a typo of 10**7 would allocate GBs)
 MAX_CHUNK_SIZE = 360_000
@@ -114,8 +115,8 @@ class ForceMapConfig(PreTrainedConfig):
         robot_pose_key: the current end-effector pose ``[x y z qw qx qy qz]`` at reset (the start of
             the reproduction is moved to it).
         episodes: the demonstrations to learn from (default ``[0]``: one shot); several are mapped
-            together segment by segment. LeRobot's ``--dataset.episodes`` filters its data loader,
-            which the closed-form fit does not use.
+            together segment by segment. Under ``lerobot-train``, ``--dataset.episodes`` chooses them
+            when this is left at its default (``train_hooks.py``).
         segments, segment_column, stream_weights, stream_thresholds, segmentation_window_s,
             segmentation_mode, changepoints, segmentation_seed, min_segment_s: segmentation
             (``skill.params.Segmentation``).
@@ -159,6 +160,9 @@ class ForceMapConfig(PreTrainedConfig):
             went along the contact normal past the first contact; 0: unknown), n_force_profile (frames of the expected
             force profile): filled in by the fit (leave them at their defaults); the checkpoint's
             tensors take their shapes from them.
+        packed_features: filled in by the fit: ``{feature: positions in observation.state}`` of the
+            features a ``lerobot-record`` dataset packed into ``observation.state``; observations are
+            unpacked the same way while acting (``lerobot_forcemap.data.packed_state``).
         normalization_mapping: IDENTITY for every feature type: the maps work on raw values.
     """
 
@@ -235,6 +239,7 @@ class ForceMapConfig(PreTrainedConfig):
     demo_stiffness: float = 0.0
     demo_depth: float = 0.0
     n_force_profile: int = 0
+    packed_features: dict[str, list[int]] = field(default_factory=dict)
     check_task: bool = True
     control_fps: float | None = None
 
@@ -306,6 +311,10 @@ class ForceMapConfig(PreTrainedConfig):
                 f"ForceMapConfig.{name}",
                 f"name anchor objects with a position (<obj>_x/_y/_z) in {where}",
                 unknown,
+            )
+        for key, index in self.packed_features.items():  # positions in observation.state
+            check_int_list(
+                f"ForceMapConfig.packed_features[{key!r}]", index, low=0, non_empty=False, distinct=True
             )
         if beyond := sorted(int(k) for k in self.segment_overrides if not 0 <= int(k) < n):
             fail("ForceMapConfig.segment_overrides", f"name segments of the fit (0..{n - 1})", beyond)

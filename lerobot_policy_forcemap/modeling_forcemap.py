@@ -5,8 +5,9 @@ Closed-form "training" (LeRobot 0.6.1, ``scripts/lerobot_train.py``): ``make_pol
 policy with ``dataset_meta``; the constructor then reads the chosen episodes, segments them and fits
 the maps (``lerobot_forcemap.skill.fit``), fills the fitted sizes into the config and keeps the result
 as float64 persistent buffers, which ``save_pretrained`` writes to ``model.safetensors``.
-``lerobot-train --policy.type=forcemap --steps=1`` therefore fits and saves a checkpoint; the
-optimiser sees one dummy parameter with learning rate 0. Loading (``from_pretrained``,
+``lerobot-train --policy.type=forcemap`` therefore fits and saves a checkpoint; the optimiser sees one
+dummy parameter with learning rate 0, and the run ends after step 1 (``train_hooks.py``, which also
+makes ``--dataset.episodes`` choose the demonstrations). Loading (``from_pretrained``,
 ``lerobot-eval --policy.path``) builds the buffers from the config's fitted sizes and checks the
 files first (``checkpoint.py``).
 
@@ -24,6 +25,7 @@ from __future__ import annotations
 import logging
 import warnings
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -33,8 +35,11 @@ from huggingface_hub.constants import SAFETENSORS_SINGLE_FILE
 from lerobot.policies.pretrained import PreTrainedPolicy
 from torch import Tensor, nn
 
+from lerobot_forcemap import layout
 from lerobot_forcemap._validation import check_array, fail
+from lerobot_forcemap.data.force_schema import resolve_wrench
 from lerobot_forcemap.data.hub import check_repo_id
+from lerobot_forcemap.data.packed_state import packed_plan, unpack_columns, unpack_features, unpack_rows
 from lerobot_forcemap.data.reader import read_episodes, to_meta
 from lerobot_forcemap.skill.episodes import EpisodeArrays, episodes_from_columns, needed_columns
 from lerobot_forcemap.skill.feedback import FeedbackGains, ForceFeedback, ForceProfile, force_profile
@@ -54,6 +59,7 @@ from lerobot_policy_forcemap.checkpoint import (
     read_config_json,
 )
 from lerobot_policy_forcemap.configuration_forcemap import RUNTIME_FIELDS, ForceMapConfig, config_error_detail
+from lerobot_policy_forcemap.train_hooks import end_after_fit, episodes_to_fit, running_train_config
 
 __all__ = ["ForceMapPolicy", "SKILL_TENSORS", "load_episodes"]
 
@@ -66,7 +72,9 @@ _HUB_KWARGS = ("force_download", "token", "cache_dir", "local_files_only", "revi
 def load_episodes(dataset: Any, config: ForceMapConfig) -> tuple[list[EpisodeArrays], dict, float, list[str]]:
     """Read ``config.episodes`` of a LeRobot dataset (a folder, a ``LeRobotDatasetMetadata`` or a
     ``DatasetMeta``: see ``lerobot_forcemap.data.reader.to_meta``); returns (episodes, features, fps,
-    the task strings of those episodes)."""
+    the task strings of those episodes). Features packed into ``observation.state`` (a dataset of
+    ``lerobot-record``) are unpacked (``data.packed_state``); the force is where ``config.force_key``
+    points, in any of the schemas of ``data.force_schema``."""
     episodes, features, fps, tasks, _ = _load(dataset, config)
     return episodes, features, fps, tasks
 
@@ -74,12 +82,24 @@ def load_episodes(dataset: Any, config: ForceMapConfig) -> tuple[list[EpisodeArr
 def _load(dataset: Any, config: ForceMapConfig):
     """:func:`load_episodes` plus the measured TCP positions ``(T, 3)`` of the first episode (from
     ``robot_pose_key``; None when the dataset has none)."""
+    meta = to_meta(dataset)
+    plan = packed_plan(meta.features)
+    features = unpack_features(meta.features, plan)
+    source = resolve_wrench(features, config.force_key, name="ForceMapConfig.force_key")
     params = config.skill_params()
-    columns = [*needed_columns(params), config.robot_pose_key]
-    data = read_episodes(dataset, config.episodes, columns, name="ForceMapConfig.episodes")
-    episodes = episodes_from_columns(data.columns, data.features, params, config.episodes)
-    measured = _measured_positions(data.columns, config.robot_pose_key, config.episodes[0])
-    return episodes, data.features, data.fps, data.tasks, measured
+    if source is not None and source.spec != params.columns.force_key:
+        logger.info("forcemap fit: the wrench is %s", source.describe())
+        params = replace(params, columns=replace(params.columns, force_key=source.spec))
+    wanted = [*needed_columns(params), *(source.columns if source else ()), config.robot_pose_key]
+    wanted = [layout.OBS_STATE if k in plan else k for k in wanted]
+    data = read_episodes(meta, config.episodes, wanted, name="ForceMapConfig.episodes")
+    columns = unpack_columns(data.columns, plan)
+    if source is not None and source.spec not in columns:  # three entries of a wider feature
+        columns[source.spec] = source.force(columns)
+        features[source.spec] = {"dtype": "float32", "shape": (3,), "names": ["fx", "fy", "fz"]}
+    episodes = episodes_from_columns(columns, features, params, config.episodes)
+    measured = _measured_positions(columns, config.robot_pose_key, config.episodes[0])
+    return episodes, features, data.fps, data.tasks, measured
 
 
 class ForceMapPolicy(PreTrainedPolicy):
@@ -109,7 +129,12 @@ class ForceMapPolicy(PreTrainedPolicy):
         self._forward_calls = 0  # training steps seen: the second one says it changes nothing
         if dataset_meta is not None and config.pretrained_path is None:
             config.check_unfitted()
+            train_config = running_train_config()  # under lerobot-train: its --dataset.episodes, --steps
+            if train_config is not None:
+                config.episodes = episodes_to_fit(config.episodes, train_config.dataset.episodes)
             self.fit_dataset(dataset_meta)  # what lerobot-train or forcemap fit already read
+            if train_config is not None:
+                end_after_fit(train_config)
         else:
             if dataset_meta is not None:
                 _refuse_another_task(config, dataset_meta)
@@ -123,6 +148,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         episodes, features, fps, tasks, measured = _load(dataset, self.config)
         env_key = self.config.env_state_key
         names = list(features[env_key].get("names") or []) if env_key in features else []
+        self.config.packed_features = packed_plan(to_meta(dataset).features)
         return self.fit_episodes(episodes, fps, names, tasks, measured=measured)
 
     def fit_episodes(
@@ -295,6 +321,7 @@ class ForceMapPolicy(PreTrainedPolicy):
     @torch.no_grad()
     def predict_action_chunk(self, batch: dict[str, Tensor], **kwargs: Any) -> Tensor:
         """The next ``chunk_size`` targets ``(B, chunk_size, 8)`` from the current time (does not advance it)."""
+        batch = unpack_rows(batch, self.config.packed_features)
         run = self._run_for(batch)
         times = (self._step + np.arange(self.config.chunk_size)) / self.clock_hz
         actions = run.actions_at(times)
@@ -305,6 +332,7 @@ class ForceMapPolicy(PreTrainedPolicy):
     @torch.no_grad()
     def select_action(self, batch: dict[str, Tensor], **kwargs: Any) -> Tensor:
         """The target ``(B, 8)`` at t = k / clock_hz for the k-th call since ``reset``."""
+        batch = unpack_rows(batch, self.config.packed_features)
         run = self._run_for(batch)
         actions = run.actions_at(np.array([self._step / self.clock_hz]))[:, 0]
         feedback = self._feedback_for(batch, len(actions))
@@ -440,6 +468,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         """Diagnostic loss: distance (m) of the demonstrated target positions to the fitted path placed
         in each sample's scene (objects from its environment state; no gradient flows to the maps)."""
         cfg, skill = self.config, self.skill
+        batch = unpack_rows(batch, cfg.packed_features)
         self._forward_calls += 1
         if self._forward_calls == 2 and self.training:
             # lerobot-train's default is 100k steps, each only this diagnostic (about 50 min on a laptop CPU)

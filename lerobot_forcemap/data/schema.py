@@ -35,6 +35,7 @@ __all__ = [
     "add_episode",
     "card_markdown",
     "write_dataset_card",
+    "write_feature_units",
     "refresh_dataset_card",
     "require_dataset_root",
 ]
@@ -404,7 +405,8 @@ def write_dataset_card(
     license: str | None = "apache-2.0",
     repo_id: str | None = None,
 ) -> Path:
-    """Write ``<root>/README.md``: LeRobot's card template with our description (units, frames, sources).
+    """Write ``<root>/README.md``: LeRobot's card template with our description (units, frames, sources),
+    and the units into ``meta/info.json`` (:func:`write_feature_units`).
 
     The description is also stored in ``<root>/meta/forcemap_card.json`` so that
     :func:`lerobot_forcemap.data.hub.push_dataset` pushes the same card to the Hub (LeRobot's
@@ -424,12 +426,29 @@ def write_dataset_card(
         license=license,
         repo_id=repo_id,
     )
+    write_feature_units(root, units)
     features = _card_features(root)
     description = card_markdown(
         title=title, source=source, robot=robot, features=features, units=units, frames=frames, extra=extra
     )
     card_tags = sorted({"forcemap", "force", "wrench", *(tags or ())})
     return _write_card_files(root, description, card_tags, license, repo_id, inputs)
+
+
+def write_feature_units(root: str | Path, units: Mapping[str, str] | None = None) -> None:
+    """Store each feature's units and frame (``layout.UNITS``, overridden by ``units``) in ``meta/info.json``
+    as ``features[key]["info"]["units"]``, where LeRobot keeps per-feature metadata: its own dataset
+    tools (``lerobot-edit-dataset``: delete_episodes, split, merge) copy it, unlike the card files.
+    The file is replaced whole (written next to it, then renamed)."""
+    path = Path(root) / "meta" / "info.json"
+    info = json.loads(path.read_text())
+    known = {**layout.UNITS, **(units or {})}
+    for key, feature in info["features"].items():
+        if key in known:
+            feature["info"] = {**(feature.get("info") or {}), "units": known[key]}
+    staged = path.with_name(path.name + ".partial")
+    staged.write_text(json.dumps(info, indent=4))
+    staged.replace(path)
 
 
 def _card_features(root: Path) -> dict[str, dict[str, Any]]:

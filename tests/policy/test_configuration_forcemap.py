@@ -246,3 +246,17 @@ def test_a_bad_config_from_python_is_raised_and_logged_once(caplog):
     assert [r.getMessage() for r in caplog.records] == [
         "ForceMapConfig.n_nodes: must be an integer >= 3 or None, got -5"
     ]
+
+
+def test_packed_features_are_positions_in_the_state():
+    from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
+
+    fitted = dict(
+        n_segments=1, segment_n_nodes=[5], segment_n_gripper_nodes=[5], segment_anchors=[""], fps=20.0
+    )
+    ok = ForceMapConfig(**fitted, packed_features={"observation.force": [3, 4, 5], "observation.state": []})
+    assert ok.packed_features["observation.force"] == [3, 4, 5]
+    with pytest.raises(
+        ValueError, match=r"ForceMapConfig.packed_features\['observation.force'\]: must hold distinct"
+    ):
+        ForceMapConfig(**fitted, packed_features={"observation.force": [3, 3, 5]})
