@@ -6,11 +6,9 @@ import json
 import sys
 
 import pytest
-import torch
 
 from lerobot_forcemap.cli import cli, main
 from lerobot_forcemap.cli.fit_dataset import EpisodeJob, fit_episode
-from lerobot_policy_forcemap.modeling_forcemap import SKILL_TENSORS, ForceMapPolicy
 
 
 def test_all_episodes_writes_one_checkpoint_per_episode(press_dataset, press_checkpoint, tmp_path, capsys):
@@ -27,6 +25,10 @@ def test_all_episodes_writes_one_checkpoint_per_episode(press_dataset, press_che
     assert all(len(r["segments"]) == r["n_segments"] == len(r["changepoints"]) - 1 for r in rows)
     assert "episode 0: ok" in printed
     # episode 0's skill is what `forcemap fit --episodes 0` fits
+    import torch
+
+    from lerobot_policy_forcemap.modeling_forcemap import SKILL_TENSORS, ForceMapPolicy
+
     a = ForceMapPolicy.from_pretrained(out / rows[0]["folder"])
     b = ForceMapPolicy.from_pretrained(press_checkpoint)
     for name in SKILL_TENSORS:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import torch
 
 from lerobot_forcemap import layout
 from lerobot_forcemap.data.packed_state import (
@@ -40,6 +39,8 @@ def test_packed_names_unpack_to_the_layout():
     state = np.arange(2 * len(NAMES), dtype=np.float32).reshape(2, -1)
     columns = unpack_columns({layout.OBS_STATE: state}, plan)
     np.testing.assert_array_equal(columns[layout.OBS_FORCE], state[:, 10:16])
+    import torch
+
     rows = unpack_rows({layout.OBS_STATE: torch.from_numpy(state)}, plan)
     assert torch.equal(rows[layout.OBS_EE_POSE], torch.from_numpy(state[:, 3:10]))
 

@@ -7,11 +7,19 @@ import json
 
 import pytest
 
-from lerobot_policy_forcemap.train_hooks import end_after_fit, episodes_to_fit, running_train_config
 from tests.policy.test_lerobot_cli import BIN, ENV
 
 
-def test_dataset_episodes_choose_the_demonstrations():
+@pytest.fixture(scope="module")
+def hooks():
+    """lerobot_policy_forcemap.train_hooks, imported when a test needs it (it imports LeRobot)."""
+    from lerobot_policy_forcemap import train_hooks
+
+    return train_hooks
+
+
+def test_dataset_episodes_choose_the_demonstrations(hooks):
+    episodes_to_fit = hooks.episodes_to_fit
     assert episodes_to_fit([0], None) == [0]
     assert episodes_to_fit([0], [3]) == [3]  # the policy's default follows --dataset.episodes
     assert episodes_to_fit([0], [4, 2]) == [4, 2]
@@ -22,14 +30,14 @@ def test_dataset_episodes_choose_the_demonstrations():
         episodes_to_fit([1], [3])
 
 
-def test_steps_end_after_the_fit(caplog):
+def test_steps_end_after_the_fit(hooks, caplog):
     class Run:
         steps = 100_000
 
     run = Run()
-    end_after_fit(run)
+    hooks.end_after_fit(run)
     assert run.steps == 1 and "ends after step 1" in caplog.text
-    assert running_train_config() is None  # outside lerobot-train nothing is found
+    assert hooks.running_train_config() is None  # outside lerobot-train nothing is found
 
 
 @pytest.mark.slow
