@@ -30,6 +30,7 @@ from lerobot.configs import PipelineFeatureType, PolicyFeature
 from lerobot.processor.pipeline import ObservationProcessorStep, ProcessorStepRegistry
 
 from lerobot_forcemap import layout
+from lerobot_forcemap._validation import check_choice, fail
 
 __all__ = [
     "ENV_STATE_EXTRA_KEYS",
@@ -56,12 +57,9 @@ def parse_env_state_extras(spec: str | Sequence[str] | None) -> tuple[str, ...]:
     items = spec.split(",") if isinstance(spec, str) else list(spec)
     extras = tuple(s.strip() for s in items if s and s.strip())
     for name in extras:
-        if name not in ENV_STATE_EXTRA_KEYS:
-            raise ValueError(
-                f"env_state_extras: unknown extra {name!r}; allowed: {', '.join(ENV_STATE_EXTRA_KEYS)}"
-            )
+        check_choice("env_state_extras", name, ENV_STATE_EXTRA_KEYS)
     if len(set(extras)) != len(extras):
-        raise ValueError(f"env_state_extras: repeated name in {list(extras)}")
+        fail("env_state_extras", "name each extra once (none repeated)", list(extras))
     return extras
 
 
@@ -72,8 +70,6 @@ def extended_env_state_names(
     for every name of each extra (``extra_names[extra]``, e.g. ``layout.FORCE_NAMES``)."""
     out = list(base_names)
     for extra in parse_env_state_extras(extras):
-        if extra not in extra_names:
-            raise ValueError(f"env_state_extras: no names given for extra {extra!r}")
         out += [f"{extra}_{n}" for n in extra_names[extra]]
     return out
 
@@ -96,12 +92,8 @@ class EnvStateExtrasProcessorStep(ObservationProcessorStep):
         if not self.extras:
             return observation
         keys = [layout.OBS_ENV_STATE, *(ENV_STATE_EXTRA_KEYS[e] for e in self.extras)]
-        missing = [k for k in keys if k not in observation]
-        if missing:
-            raise ValueError(
-                f"EnvStateExtrasProcessorStep: observation lacks {missing} (has {sorted(observation)}); "
-                f"extras {list(self.extras)}"
-            )
+        if missing := [k for k in keys if k not in observation]:
+            fail("EnvStateExtrasProcessorStep observation", f"hold {missing} for extras {list(self.extras)}")
         parts = [observation[k] for k in keys]
         out = dict(observation)
         if all(hasattr(p, "dim") for p in parts):
@@ -127,9 +119,7 @@ class EnvStateExtrasProcessorStep(ObservationProcessorStep):
         for e in self.extras:
             key = ENV_STATE_EXTRA_KEYS[e]
             if key not in obs:
-                raise ValueError(
-                    f"EnvStateExtrasProcessorStep: feature {key!r} (extra {e!r}) is not declared"
-                )
+                fail("EnvStateExtrasProcessorStep features", f"declare {key!r} for extra {e!r}")
             size += obs[key].shape[-1]
         new = dict(features)
         new_obs = dict(obs)
