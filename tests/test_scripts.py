@@ -19,6 +19,7 @@ from tests.conftest import REPO_ROOT
 
 #: script -> (arguments, a line fragment its output must hold, the real recording it reads or None)
 RUNS = {
+    "bench_structure": ([], "functions over 60 lines", None),
     "bench_dataset_fit": (["--episodes", "4", "--fit", "2"], "| 2 |", None),
     "bench_policy_fit": (["--runs", "1", "--no-train"], "one-shot total", None),
     "bench_fit_e2e": (["--runs", "1", "--episodes", "1", "--datasets", "datasets/press"], "| press | ", None),
