@@ -111,7 +111,9 @@ class ForceMapConfig(PreTrainedConfig):
         pose_key, force_key, gripper_key, gripper_index, finger_force_key, env_state_key, joints_key:
             dataset / observation features (``skill.params.Columns``). The pose defaults to the
             commanded target ``action``: with a compliant controller the measured pose lags it by F/K
-            in contact. ``force_key=''`` fits plain elastic maps.
+            in contact. ``force_key="auto"`` (default) fits the force points to the dataset's contact
+            reaction (``contact_reaction``: a kinesthetic recording's wrench without the guiding hand)
+            when it has one, else to ``observation.force``; ``force_key=''`` fits plain elastic maps.
         robot_pose_key: the current end-effector pose ``[x y z qw qx qy qz]`` at reset (the start of
             the reproduction is moved to it).
         episodes: the demonstrations to learn from (default ``[0]``: one shot); several are mapped
@@ -119,7 +121,9 @@ class ForceMapConfig(PreTrainedConfig):
             when this is left at its default (``train_hooks.py``).
         segments, segment_column, stream_weights, stream_thresholds, segmentation_window_s,
             segmentation_mode, changepoints, segmentation_seed, min_segment_s: segmentation
-            (``skill.params.Segmentation``).
+            (``skill.params.Segmentation``; windows in seconds, ``segmentation.DEFAULT_TIMING``, the
+            defaults of ``forcemap segment`` too). The ``touch_down`` / ``lift_off`` streams run on
+            datasets with a ``contact`` column.
         n_nodes, nodes_per_second, min_nodes, lam, mu, delta, f_contact, stiffness, rho_max,
             force_limit, time_scale, max_iter: the arm maps (``skill.params.ArmMap``). stiffness k
             (N/m): a node in steady contact with force F is lifted by F/k; reproduced with a compliant

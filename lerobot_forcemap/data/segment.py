@@ -58,7 +58,13 @@ from lerobot_forcemap.data.reader import (
 from lerobot_forcemap.data.schema import SEGMENT_INDEX_FEATURE, refresh_dataset_card
 from lerobot_forcemap.data.staging import edit_dir
 from lerobot_forcemap.jsonfile import read_json_object
-from lerobot_forcemap.segmentation import SegmentationConfig, SegmentationResult, Stream, segment_streams
+from lerobot_forcemap.segmentation import (
+    SIGNAL_STREAM_THRESHOLDS,
+    SegmentationConfig,
+    SegmentationResult,
+    Stream,
+    segment_streams,
+)
 
 __all__ = [
     "STREAM_THRESHOLDS",
@@ -72,15 +78,8 @@ __all__ = [
     "read_subtasks",
 ]
 
-# The original authors' UR5e thresholds: joints 0.20, Cartesian 0.25, wrist force 0.15, gripper 0.10;
-# finger force has none there and takes the wrist force's.
-STREAM_THRESHOLDS: dict[str, float] = {
-    "joints": 0.20,
-    "position": 0.25,
-    "wrist_force": 0.15,
-    "gripper": 0.10,
-    "finger_force": 0.15,
-}
+#: the original authors' UR5e thresholds (one definition, ``segmentation.SIGNAL_STREAM_THRESHOLDS``)
+STREAM_THRESHOLDS: dict[str, float] = SIGNAL_STREAM_THRESHOLDS
 SUBTASK_STYLES = ("motion", "subtask")
 _ROLE = "assistant"
 _OUR_CONTENT = re.compile(r"segment \d+ of \d+")

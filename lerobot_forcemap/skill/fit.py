@@ -1,9 +1,10 @@
 """Demonstrations -> segments -> one arm map and one gripper map per segment (paper §III, §IV-C).
 
 1. Segment every chosen episode (``segments``): multimodal probabilistic segmentation of the
-   position, wrist-force, joint, gripper and finger-force streams with the window scaled to the
-   dataset fps; or the dataset's ``segment_index`` column; or one segment. Several episodes are
-   aligned segment by segment, so their segment counts must agree.
+   position, wrist-force, joint, gripper and finger-force streams, plus the contact events
+   (touch-downs, lift-offs) when the dataset has a ``contact`` column, with the windows in seconds
+   converted at the dataset fps; or the dataset's ``segment_index`` column; or one segment. Several
+   episodes are aligned segment by segment, so their segment counts must agree.
 2. Anchor: a segment whose (first) demonstration comes within ``anchor_radius`` of an object
    (``<obj>_x/_y/_z`` in the environment state, its position at the same frames) that stays within
    ``static_tolerance`` during the segment in every episode is expressed in that object's frame
@@ -29,17 +30,25 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from lerobot_forcemap import layout
 from lerobot_forcemap.elmap import ElasticMapFit, fit_force_elastic_map
 from lerobot_forcemap.segmentation import (
-    AUTHORS_RATE_HZ,
-    AUTHORS_WINDOW_S,
+    EventStream,
     SegmentationConfig,
+    SegmentationTiming,
     Stream,
+    contact_event_streams,
     segment_streams,
 )
 from lerobot_forcemap.skill.episodes import EpisodeArrays
 from lerobot_forcemap.skill.model import FittedSkill, SegmentMaps
-from lerobot_forcemap.skill.params import DEFAULT_STREAM_WEIGHTS, ArmMap, SegmentParams, SkillParams
+from lerobot_forcemap.skill.params import (
+    DEFAULT_STREAM_WEIGHTS,
+    EVENT_STREAMS,
+    ArmMap,
+    SegmentParams,
+    SkillParams,
+)
 from lerobot_forcemap.skill.placement import (
     IDENTITY_POSE,
     ObjectSlot,
@@ -64,7 +73,6 @@ __all__ = [
 ]
 
 Array = NDArray[np.float64]
-AUTHORS_GRACE = 4
 
 
 @dataclass(frozen=True)
@@ -100,23 +108,13 @@ class FitReport:
 
 
 def segmentation_config(params: SkillParams, fps: float) -> SegmentationConfig:
-    """The segmentation settings with the window (and min_run, grace) scaled to ``fps``.
-
-    The authors used window = min_run = 64 and grace = 4 samples at ~166 Hz; here the window is
-    ``segmentation_window_s`` seconds (default 64/166 s), at least 5 samples (Savitzky–Golay order 4).
-    """
+    """The segmentation settings at ``fps``: ``segmentation_window_s`` and ``min_segment_s`` in
+    seconds (``segmentation.SegmentationTiming``: min_run = the window, grace 4/64 of it, at least 5
+    samples for the Savitzky–Golay order 4)."""
     seg = params.segmentation
-    window = max(5, int(round(seg.segmentation_window_s * fps)))
-    grace = int(round(AUTHORS_GRACE * window / (AUTHORS_WINDOW_S * AUTHORS_RATE_HZ)))
-    min_len = None if seg.min_segment_s is None else max(1, int(round(seg.min_segment_s * fps)))
-    return SegmentationConfig(
-        window=window,
-        min_run=window,
-        grace=grace,
-        mode=seg.segmentation_mode,
-        changepoints=seg.changepoints,
-        seed=int(seg.segmentation_seed),
-        min_segment_length=min_len,
+    timing = SegmentationTiming(window_s=seg.segmentation_window_s, min_segment_s=seg.min_segment_s)
+    return timing.config(
+        fps, mode=seg.segmentation_mode, changepoints=seg.changepoints, seed=int(seg.segmentation_seed)
     )
 
 
@@ -130,31 +128,31 @@ STREAM_FEATURE_FIELDS = {
 }
 
 
-def episode_streams(ep: EpisodeArrays, params: SkillParams) -> list[Stream]:
-    """Segmentation streams of one episode (those with a weight > 0 whose data the dataset has)."""
+def episode_streams(ep: EpisodeArrays, params: SkillParams) -> list[Stream | EventStream]:
+    """Segmentation streams of one episode (those with a weight > 0 whose data the dataset has): the
+    signal streams, and the contact events (``touch_down``, ``lift_off``) when it has a contact column."""
     sources = {
         "position": ep.pose[:, :3],
-        "wrist_force": ep.force if ep.has_force else None,
+        "wrist_force": ep.measured_force if ep.has_force else None,
         "joints": ep.joints,
         "gripper": ep.gripper,
         "finger_force": ep.finger_force,
     }
     seg = params.segmentation
-    streams = []
+    streams: list[Stream | EventStream] = []
     for name, values in sources.items():
         weight = float(seg.stream_weights[name])
-        if values is None and weight > 0 and weight != DEFAULT_STREAM_WEIGHTS[name]:
-            # a default weight of a stream the dataset lacks is skipped quietly (one config serves every
-            # task); a weight someone set is not
-            logger.warning(
-                "episode %d: stream_weights[%r]=%g is set, but the dataset has no %r feature for it; that stream "
-                "is left out of the segmentation",
-                ep.episode, name, weight, getattr(params.columns, STREAM_FEATURE_FIELDS[name]),
-            )  # fmt: skip
-        if values is None or weight <= 0:
-            continue
-        threshold = float(seg.stream_thresholds[name])
-        streams.append(Stream(name, values, ep.times, weight=weight, threshold=threshold))
+        if values is None:
+            _warn_missing(ep, name, weight, getattr(params.columns, STREAM_FEATURE_FIELDS[name]))
+        elif weight > 0:
+            threshold = float(seg.stream_thresholds[name])
+            streams.append(Stream(name, values, ep.times, weight=weight, threshold=threshold))
+    weights = {name: float(seg.stream_weights[name]) for name in EVENT_STREAMS}
+    if ep.contact is None:
+        for name in EVENT_STREAMS:
+            _warn_missing(ep, name, weights[name], layout.CONTACT)
+    else:
+        streams += contact_event_streams(ep.times, ep.contact_intervals(), weights=weights)
     if not streams:
         raise ValueError(
             f"stream_weights={seg.stream_weights}: no stream with a weight > 0 has data "
@@ -343,6 +341,17 @@ def fit_skill(
         seconds=time.perf_counter() - t0,
     )
     return FittedSkill(tuple(segments)), report
+
+
+def _warn_missing(ep: EpisodeArrays, name: str, weight: float, feature: str) -> None:
+    """A stream the dataset has no data for: a default weight is skipped quietly (one config serves every
+    task), a weight someone set is not."""
+    if weight > 0 and weight != DEFAULT_STREAM_WEIGHTS[name]:
+        logger.warning(
+            "episode %d: stream_weights[%r]=%g is set, but the dataset has no %r feature for it; that stream "
+            "is left out of the segmentation",
+            ep.episode, name, weight, feature,
+        )  # fmt: skip
 
 
 def _changepoints(episodes: list[EpisodeArrays], params: SkillParams, fps: float) -> list[NDArray[np.int64]]:
