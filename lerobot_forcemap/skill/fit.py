@@ -18,7 +18,9 @@
    ``gripper_time_scale``, ``gripper_nodes_per_second`` nodes per second).
 
 Segment s of an episode with changepoints c is frames ``[c_s, c_{s+1}]`` (the boundary frame is
-shared with the next segment, so consecutive maps meet); the last segment ends at the last frame.
+shared with the next segment); the last segment ends at the last frame. The segments are fitted
+independently, then joined (``junctions.join_segments``): consecutive maps share a node at their
+boundary's time, and the skill starts and ends at the demonstrated first and last sample.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from numpy.typing import NDArray
 
 from lerobot_forcemap import layout
 from lerobot_forcemap.elmap import ElasticMapFit, fit_force_elastic_map
+from lerobot_forcemap.elmap.timing import node_orientations
 from lerobot_forcemap.segmentation import (
     EventStream,
     SegmentationConfig,
@@ -41,6 +44,7 @@ from lerobot_forcemap.segmentation import (
     segment_streams,
 )
 from lerobot_forcemap.skill.episodes import EpisodeArrays
+from lerobot_forcemap.skill.junctions import SegmentEnds, join_segments
 from lerobot_forcemap.skill.model import FittedSkill, SegmentMaps
 from lerobot_forcemap.skill.params import (
     DEFAULT_STREAM_WEIGHTS,
@@ -323,15 +327,19 @@ def fit_skill(
     if env_state_names and all(ep.env_state is not None for ep in episodes):
         slots = object_slots(env_state_names)
     scene = object_poses(episodes[0].env_state[0], slots) if slots else {}
-    segments, arm_fits, gripper_fits = [], [], []
+    segments: list[SegmentMaps] = []
+    arm_fits, gripper_fits, ends = [], [], []
     for s in range(len(changepoints[0]) - 1):
         frames = _frames_of_segment(episodes, changepoints, s)
         anchor = _anchor_of_segment(episodes, frames, slots, params) if slots else ""
-        maps, arm, grip = _fit_segment(episodes, frames, slots, anchor, params.segment(s), fps, s)
+        maps, arm, grip, end = _fit_segment(episodes, frames, slots, anchor, params.segment(s), fps, s)
         initial = scene[anchor] if anchor else IDENTITY_POSE.copy()
         segments.append(replace(maps, anchor_initial_pose=initial))
         arm_fits.append(arm)
         gripper_fits.append(grip)
+        ends.append(end)
+    # an end node within a frame of a boundary is the boundary (junctions module docstring)
+    skill = FittedSkill(join_segments(segments, ends[0], ends[-1], merge_s=1.0 / fps))
     report = FitReport(
         episodes=tuple(ep.episode for ep in episodes),
         changepoints=tuple(changepoints),
@@ -340,7 +348,7 @@ def fit_skill(
         gripper_fits=tuple(gripper_fits),
         seconds=time.perf_counter() - t0,
     )
-    return FittedSkill(tuple(segments)), report
+    return skill, report
 
 
 def _warn_missing(ep: EpisodeArrays, name: str, weight: float, feature: str) -> None:
@@ -439,8 +447,9 @@ def _fit_segment(
     p: SegmentParams,
     fps: float,
     s: int,
-) -> tuple[SegmentMaps, ElasticMapFit, ElasticMapFit]:
-    """The arm and gripper maps of segment ``s`` (its ``anchor_initial_pose`` is the caller's)."""
+) -> tuple[SegmentMaps, ElasticMapFit, ElasticMapFit, SegmentEnds]:
+    """The arm and gripper maps of segment ``s`` (its ``anchor_initial_pose`` is the caller's) and its
+    demonstrated ends."""
     # the frame each episode's data is stored in: the anchor's pose at the segment's first frame
     poses = [
         object_poses(ep.env_state[fr[0]], slots)[anchor] if anchor else None
@@ -466,7 +475,22 @@ def _fit_segment(
         anchor=anchor,
         anchor_pose=poses[0] if anchor else IDENTITY_POSE.copy(),
     )
-    return maps, arm, grip
+    return maps, arm, grip, _ends(data, duration)
+
+
+def _ends(data: _SegmentData, duration: float) -> SegmentEnds:
+    """The segment's first and last demonstrated sample in its frame, means over the episodes (the
+    orientations sign-aligned, as the maps' own)."""
+    fractions = [t / t[-1] if t[-1] > 0 else np.zeros_like(t) for t in data.ts]
+    return SegmentEnds(
+        positions=np.stack(
+            [np.mean([x[0] for x in data.xs], axis=0), np.mean([x[-1] for x in data.xs], axis=0)]
+        ),
+        orientations=node_orientations(np.array([0.0, duration]), fractions, data.qs, duration),
+        gripper=np.stack(
+            [np.mean([g[0] for g in data.gs], axis=0), np.mean([g[-1] for g in data.gs], axis=0)]
+        ),
+    )
 
 
 def _fit_arm(data: _SegmentData, arm: ArmMap, n_nodes: int, has_force: bool) -> ElasticMapFit:
