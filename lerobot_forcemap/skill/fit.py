@@ -61,6 +61,7 @@ from lerobot_forcemap.skill.placement import (
     object_slots,
     to_object_frame,
 )
+from lerobot_forcemap.skill.report import FitReport
 
 logger = logging.getLogger(__name__)
 
@@ -77,38 +78,6 @@ __all__ = [
 ]
 
 Array = NDArray[np.float64]
-
-
-@dataclass(frozen=True)
-class FitReport:
-    """Diagnostics of :func:`fit_skill`: changepoints per episode, per-segment fits, timing."""
-
-    episodes: tuple[int, ...]
-    changepoints: tuple[NDArray[np.int64], ...]
-    anchors: tuple[str, ...]
-    arm_fits: tuple[ElasticMapFit, ...]
-    gripper_fits: tuple[ElasticMapFit, ...]
-    seconds: float
-
-    def summary(self) -> list[dict]:
-        """One row per segment: anchor, nodes, EM iterations, stop reason, capped nodes, force points."""
-        return [
-            {
-                "segment": s,
-                "anchor": self.anchors[s],
-                "n_nodes": a.n_nodes,
-                "duration_s": a.duration,
-                "n_iter": a.n_iter,
-                "stop_reason": a.stop_reason,
-                "last_step": a.last_step,
-                "last_spring_step": a.last_spring_step,
-                "n_force_points": a.n_force_points,
-                "capped_nodes": int(len(a.capped_nodes)),
-                "gripper_n_iter": g.n_iter,
-                "gripper_force_points": g.n_force_points,
-            }
-            for s, (a, g) in enumerate(zip(self.arm_fits, self.gripper_fits, strict=True))
-        ]
 
 
 def segmentation_config(params: SkillParams, fps: float) -> SegmentationConfig:
@@ -340,13 +309,8 @@ def fit_skill(
         ends.append(end)
     # an end node within a frame of a boundary is the boundary (junctions module docstring)
     skill = FittedSkill(join_segments(segments, ends[0], ends[-1], merge_s=1.0 / fps))
-    report = FitReport(
-        episodes=tuple(ep.episode for ep in episodes),
-        changepoints=tuple(changepoints),
-        anchors=tuple(m.anchor for m in segments),
-        arm_fits=tuple(arm_fits),
-        gripper_fits=tuple(gripper_fits),
-        seconds=time.perf_counter() - t0,
+    report = FitReport.build(
+        skill, episodes, changepoints, arm_fits, gripper_fits, fps, time.perf_counter() - t0
     )
     return skill, report
 
