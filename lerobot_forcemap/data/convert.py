@@ -247,18 +247,11 @@ def convert_episodes(
     kinesthetic = check_bool("kinesthetic (--teleoperated)", kinesthetic)
     check_output(out, overwrite=overwrite)
     work = partial_dir(out)
-    settings = {
-        "fps": fps,
-        "kinesthetic": kinesthetic,
-        "tare": tare,
-        "force_lowpass_hz": force_lowpass_hz,
-        "gripper_full_scale": gripper_full_scale,
-        "wrench_sign": LAB_WRENCH_SIGN,
-        "on_duplicate_timestamps": on_duplicate,
-    }
-    align = partial(_prepare_source, kinesthetic=kinesthetic, fps=fps, tare=tare,
-                    force_lowpass_hz=force_lowpass_hz, gripper_full_scale=gripper_full_scale,
-                    on_duplicate=on_duplicate)  # fmt: skip
+    aligning = dict(fps=fps, tare=tare, force_lowpass_hz=force_lowpass_hz,
+                    gripper_full_scale=gripper_full_scale, on_duplicate=on_duplicate)  # fmt: skip
+    settings = {**aligning, "kinesthetic": kinesthetic, "wrench_sign": LAB_WRENCH_SIGN}
+    settings["on_duplicate_timestamps"] = settings.pop("on_duplicate")
+    align = partial(_prepare_source, kinesthetic=kinesthetic, **aligning)
     sources = tqdm(sources, total=total, desc="convert", unit="episode", disable=not progress)
     try:
         features, records, n_frames = _write_dataset(sources, work, align, repo_id, fps, robot_type)
