@@ -16,14 +16,13 @@ from numpy.typing import NDArray
 
 from lerobot_forcemap import layout
 from lerobot_forcemap.contact import mask_to_intervals
-from lerobot_forcemap.skill.params import AUTO_FORCE_KEY, Columns, SkillParams
+from lerobot_forcemap.skill.params import Columns, SkillParams
 
 __all__ = [
     "EpisodeArrays",
     "episodes_from_columns",
     "needed_columns",
     "finger_force_scalar",
-    "resolve_force_key",
 ]
 
 Array = NDArray[np.float64]
@@ -76,20 +75,12 @@ class EpisodeArrays:
         return mask_to_intervals(self.times, self.contact)
 
 
-def resolve_force_key(columns: Columns, features: Mapping[str, Any]) -> str:
-    """The feature the force points read: ``force_key`` itself, or for "auto" the contact reaction
-    (``layout.CONTACT_REACTION``) when the dataset has it, else the wrist wrench (``layout.OBS_FORCE``)."""
-    if columns.force_key != AUTO_FORCE_KEY:
-        return columns.force_key
-    return layout.CONTACT_REACTION if layout.CONTACT_REACTION in features else layout.OBS_FORCE
-
-
 def needed_columns(params: SkillParams) -> list[str]:
     """Dataset columns the fit reads (those a dataset lacks are optional or refused later, by name)."""
     c = params.columns
     keys = [c.pose_key, c.gripper_key, *BOOKKEEPING]
-    forces = [layout.CONTACT_REACTION, layout.OBS_FORCE] if c.force_key == AUTO_FORCE_KEY else [c.force_key]
-    keys += [*forces, c.finger_force_key, c.env_state_key, c.joints_key, c.segment_column, layout.CONTACT]
+    keys += [c.force_key, c.reaction_key, c.finger_force_key, c.env_state_key, c.joints_key]
+    keys += [c.segment_column, layout.CONTACT]
     return [k for k in dict.fromkeys(keys) if k]
 
 
@@ -142,7 +133,7 @@ def _check_features(columns: Mapping[str, np.ndarray], features: Mapping[str, An
             raise ValueError(
                 f"{what}={key!r}: the dataset has no such feature (features: {sorted(features)})"
             )
-    if c.force_key and resolve_force_key(c, features) not in features:
+    if c.force_key and c.force_key not in features:
         raise ValueError(
             f"force_key={c.force_key!r}: the dataset has no such feature (features: {sorted(features)}); "
             "the demonstrated force is what the method learns from. To fit plain elastic maps without it, "
@@ -152,6 +143,7 @@ def _check_features(columns: Mapping[str, np.ndarray], features: Mapping[str, An
     # a name set by hand that the dataset lacks is a mistake, not a reason to fit without it
     for key, what, default in (
         (c.finger_force_key, "finger_force_key", layout.OBS_FINGER_FORCE),
+        (c.reaction_key, "reaction_key", layout.CONTACT_REACTION),
         (c.env_state_key, "env_state_key", layout.OBS_ENV_STATE),
         (c.joints_key, "joints_key", layout.OBS_STATE),
     ):
@@ -192,14 +184,10 @@ class _EpisodeReader:
 
     def __init__(self, columns: Mapping[str, np.ndarray], features: Mapping[str, Any], c: Columns):
         self.columns, self.features, self.c = columns, features, c
-        self.force_key = resolve_force_key(c, features) if c.force_key else ""
-        self.has_force = bool(self.force_key) and self.force_key in columns
-        # "auto" on a dataset with a contact reaction: the measured wrench still drives the segmentation
-        self.wrench_key = (
-            layout.OBS_FORCE
-            if self.force_key == layout.CONTACT_REACTION and c.force_key == AUTO_FORCE_KEY
-            else ""
-        )
+        self.has_force = bool(c.force_key) and c.force_key in columns
+        # with a contact reaction the force points read it, and the measured wrench stays beside it
+        self.reacting = self.has_force and bool(c.reaction_key) and self._has(c.reaction_key)
+        self.force_key = c.reaction_key if self.reacting else c.force_key
 
     def _has(self, key: str) -> bool:
         return key in self.features and key in self.columns
@@ -287,9 +275,7 @@ class _EpisodeReader:
         return force
 
     def _wrench(self, e: int, rows: Frames, frames: Frames) -> Array | None:
-        if not (self.wrench_key and self._has(self.wrench_key)):
-            return None
-        return self._force(e, rows, frames, self.wrench_key)
+        return self._force(e, rows, frames, self.c.force_key) if self.reacting else None
 
     def _contact(self, e: int, rows: Frames, frames: Frames) -> NDArray[np.bool_] | None:
         if not self._has(layout.CONTACT):

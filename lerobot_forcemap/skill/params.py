@@ -50,15 +50,12 @@ __all__ = [
     "DEFAULT_STREAM_THRESHOLDS",
     "SIGNAL_STREAMS",
     "EVENT_STREAMS",
-    "AUTO_FORCE_KEY",
     "OVERRIDABLE",
     "RULES",
     "check_segment_overrides",
 ]
 
 SEGMENT_SOURCES = ("auto", "dataset", "none")
-#: ``force_key`` that resolves to the contact reaction when the dataset has it, else the wrist wrench
-AUTO_FORCE_KEY = "auto"
 #: segmentation streams from a signal's jerk (names as in ``lerobot_forcemap.data.segment``)
 SIGNAL_STREAMS = ("position", "wrist_force", "joints", "gripper", "finger_force")
 #: and the streams with keypoints at the dataset's contact events (its ``contact`` column)
@@ -85,9 +82,11 @@ class Columns:
     """Dataset features the fit reads (LeRobot keys; layouts in ``lerobot_forcemap.layout``).
 
     pose_key: ``[x y z qw qx qy qz ...]`` per frame (default the commanded absolute target);
-    force_key: the force the map's force points come from, first 3 entries used: "auto" takes the
-    dataset's contact reaction (``contact_reaction``) when it has one, else the wrist wrench
-    (``observation.force``); '' fits plain elastic maps, no force points;
+    force_key: the measured wrist wrench, first 3 entries used (the segmentation's wrist-force stream,
+    and the force points' force unless the dataset has a contact reaction); '' fits plain elastic maps,
+    no force points;
+    reaction_key: the contact reaction (the wrench without a guiding hand's force) the force points read
+    instead when the dataset has it ('' or absent: the wrench);
     gripper_key / gripper_index: the gripper coordinate; finger_force_key: fingertip forces;
     env_state_key: object poses (``<obj>_x <obj>_y <obj>_z [<obj>_qw .. <obj>_qz]``);
     joints_key: joint positions (segmentation stream); segment_column: per-frame segment labels.
@@ -95,7 +94,8 @@ class Columns:
     """
 
     pose_key: str = layout.ACTION
-    force_key: str = AUTO_FORCE_KEY
+    force_key: str = layout.OBS_FORCE
+    reaction_key: str = layout.CONTACT_REACTION
     gripper_key: str = layout.ACTION
     gripper_index: int = layout.ACTION_GRIPPER
     finger_force_key: str = layout.OBS_FINGER_FORCE
@@ -256,7 +256,16 @@ class SkillParams:
 
 COLUMN_RULES: dict[str, Rule] = {
     **dict.fromkeys(
-        ("pose_key", "force_key", "gripper_key", "finger_force_key", "env_state_key", "joints_key"), check_str
+        (
+            "pose_key",
+            "force_key",
+            "reaction_key",
+            "gripper_key",
+            "finger_force_key",
+            "env_state_key",
+            "joints_key",
+        ),
+        check_str,
     ),
     "gripper_index": check_int,
     "segment_column": check_str,

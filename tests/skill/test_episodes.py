@@ -132,10 +132,13 @@ def test_the_force_points_read_the_contact_reaction_when_the_dataset_has_one(col
     np.testing.assert_array_equal(ep.contact, cols[layout.CONTACT][rows, 0] == 1)
     pressing = np.flatnonzero(ep.contact)
     np.testing.assert_allclose(ep.contact_intervals(), [ep.times[pressing[[0, -1]]]])
-    # a force_key set by hand is taken as it is, without the wrench beside it
-    (wrench,) = episodes_from_columns(cols, feats, params(force_key="observation.force"), [0])
+    # reaction_key='' reads the wrench, without a second copy beside it
+    (wrench,) = episodes_from_columns(cols, feats, params(reaction_key=""), [0])
     np.testing.assert_allclose(wrench.force, cols["observation.force"][rows, :3])
     assert wrench.wrench is None and wrench.measured_force is wrench.force
+    # and a reaction_key set by hand that the dataset lacks is refused, not silently replaced
+    with pytest.raises(ValueError, match=r"^reaction_key='reaction': the dataset has no such feature"):
+        episodes_from_columns(cols, feats, params(reaction_key="reaction"), [0])
 
 
 def test_without_a_contact_reaction_the_force_points_read_the_wrench(columns):
