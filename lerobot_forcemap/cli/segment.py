@@ -145,7 +145,8 @@ def _config(args: argparse.Namespace, fps: float) -> SegmentationConfig:
 
 
 def run(args: argparse.Namespace) -> int:
-    config = _config(args, float(read_meta(args.dataset).fps))
+    # the windows are seconds at the dataset's fps; a wrong path is named before the heavy imports
+    config = _config(args, float(read_meta(args.dataset, repo_id=args.repo_id, name="--dataset").fps))
     segs = segment_dataset(
         args.dataset,
         weights=_parse_pairs(args.weights, "weights"),
@@ -198,7 +199,7 @@ def _print_notes(
             f"{shortest} (frames) dropped them all: lower it to keep them"
         )
     if single:
-        fps = float(read_meta(args.dataset).fps)
+        fps = float(read_meta(args.dataset, repo_id=args.repo_id).fps)
         default = DEFAULT_TIMING.config(fps)
         print(
             f"note: {len(single)} of {len(segs)} episode(s) found no changepoint with a window of "

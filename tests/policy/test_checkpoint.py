@@ -203,6 +203,8 @@ def test_bad_config_json(ckpt, edit, message):
 
 
 def test_overrides_of_segments_the_fit_does_not_have_are_named(ckpt):
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
     last = _config(ckpt)["n_segments"] - 1
     _edit_config(ckpt, segment_overrides={"7": {"stiffness": 4000.0}})
     message = (
