@@ -33,8 +33,8 @@ INTRO = Template("""# Real demonstrations: contacts, guiding force and reproduct
 
 Written by `python -m experiments.realdata` from the $n recordings `ur5e/*.h5` of the shared data
 folder (found by `lerobot_forcemap.shared_data`). Each one
-is converted with `forcemap convert` defaults ($fps fps), fitted with package defaults (`forcemap fit`:
-one shot, stiffness $stiffness N/m) and played from the demonstration's first frame: the skill placed
+is converted with `forcemap convert` defaults ($fps fps), fitted with package defaults (`forcemap fit`,
+one shot) and played from the demonstration's first frame: the skill placed
 at the recording's first pose (`SkillRun.start`, no objects), targets at the dataset's rate, for as many
 frames as the demonstration. Hand labels of every touch-down and lift-off, each with its one-line rule,
 are in `experiments/realdata/labels.json`.
@@ -91,13 +91,14 @@ $table
 
 LIFT_NOTE = Template("""## Lift at the largest reaction against Hooke's law
 
-At the frame of the largest estimated reaction F: Hooke's lift F/k at the fitted stiffness k, and how
+At the frame of the largest estimated reaction F: Hooke's lift F/k at the fitted stiffness k (the
+package default: 0.8 times the stiffness the demonstration shows between force and depth), and how
 far the reproduction's target stands from the demonstrated one along F. The largest reactions are the
 impacts of touch-down, one or two frames long at 50 fps: the elastic map's nodes (10 per second) each
-hold about five frames, so the lift is that of the cluster's mean force, not the peak's; denser nodes in
-the contact segments (25 or 50 per second, measured on press_2023-07-27_160940) lifted less (6.7 and
-6.6 mm against 8.0 mm: the smoothness and the force-ratio cap spread it), and a full Hooke lift of a
-20 ms spike would be a target jump larger than the demonstration's largest step.
+hold about five frames, so the lift is that of the cluster's mean force, not the peak's. Denser nodes in
+the contact segments (25 or 50 per second, tried on press_2023-07-27_160940) lifted less, not more (the
+smoothness and the force-ratio cap spread it), and a full Hooke lift of a 20 ms spike would be a target
+jump larger than the demonstration's largest step.
 
 $table
 """)
@@ -215,7 +216,8 @@ def _lift_rows(results: Sequence[RecordingResult]) -> list[list[str]]:
     for r in results:
         t, size, hooke, lift = r.values["lift"]
         if size > 0:
-            rows.append([r.name, f"{t:.2f}", f"{size:.1f}", _mm(hooke), _mm(lift)])
+            k = r.values["stiffness"]
+            rows.append([r.name, f"{t:.2f}", f"{size:.1f}", f"{k:.0f}", _mm(hooke), _mm(lift)])
     return rows
 
 
@@ -241,9 +243,7 @@ def render(results: Sequence[RecordingResult]) -> str:
     header = ["recording", "kind", "worst changepoint error (s)", "path outside contact (mm)"]
     header += ["largest step: reproduction / demo (mm, ratio)", "depth (mm)", "passes"]
     verdict = "Every press and wipe passes every criterion." if every else "**Not every criterion passes.**"
-    intro = INTRO.substitute(
-        n=len(results), fps=f"{results[0].fps:g}", stiffness=f"{results[0].values['stiffness']:g}"
-    )
+    intro = INTRO.substitute(n=len(results), fps=f"{results[0].fps:g}")
     must = MUST_SHOW.substitute(
         cp=CHANGEPOINT_TOLERANCE_S, path=_mm(PATH_TOLERANCE_M, 0), ratio=STEP_RATIO, margin=CONTACT_MARGIN_S,
         low=_mm(-PRESS_DEPTH_M[0]), high=_mm(PRESS_DEPTH_M[1], 0), table=_table(header, rows), verdict=verdict,
@@ -257,7 +257,7 @@ def _details(results: Sequence[RecordingResult], labelled: Sequence[RecordingRes
     events += ["nearest changepoint − label (s)", "extra detections"]
     forces = ["recording", "contacts detected", "hand model residual", "reaction / measured (free)"]
     forces += ["guiding share", "in contact: away", "into", "median (N)"]
-    lift = ["recording", "t (s)", "largest reaction (N)", "F/k (mm)", "reproduction's lift (mm)"]
+    lift = ["recording", "t (s)", "largest reaction (N)", "k (N/m)", "F/k (mm)", "reproduction's lift (mm)"]
     motion = ["recording", "segments", "gap (mm)", "largest step: reproduction / demo (mm)"]
     motion += ["start offset (mm)", "placement (mm)", "within 1 mm after (s)"]
     return [

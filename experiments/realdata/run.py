@@ -110,7 +110,8 @@ def _fit_measures(policy: Any, record: dict[str, Any]) -> dict[str, Any]:
         "changepoints_s": report.changepoints_s[0],
         "n_segments": len(report.changepoints[0]) - 1,
         "boundary_gap_max_m": max(report.boundary_gaps_m, default=0.0),
-        "stiffness": float(policy.config.stiffness),
+        # the fitted k: stiffness_from_demo x the demonstration's own stiffness when it tells it
+        "stiffness": float(policy.params.arm.stiffness),
     }
 
 
