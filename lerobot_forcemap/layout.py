@@ -1,4 +1,4 @@
-"""The one definition of feature names and of the observation / action layouts (SPEC §3).
+"""The one definition of feature names and of the observation / action layouts.
 
 Datasets, envs, the policy and the experiments all import these names; nothing else defines them.
 This module is pure Python (floor 1): no LeRobot, torch or MuJoCo import.
@@ -41,6 +41,16 @@ ACTION: Final = "action"
 SOURCE_TIMESTAMP: Final = "source_timestamp"
 # Per-frame segment label written back by `forcemap segment` (when subtasks are not used).
 SEGMENT_INDEX: Final = "segment_index"
+# The contact reaction and the contact flag of a recording, computed in hindsight over the whole
+# recording (a contact's lift-off is known only after it; the reaction needs the contacts): written by
+# the converters and `forcemap record`, read by the fit. Not under `observation.`: no policy can observe
+# them while acting, so LeRobot must not type them as policy inputs.
+# CONTACT_REACTION: the force the environment exerts on the robot at a contact (N, base frame; 0 outside
+# contacts in kinesthetic recordings, where the wrist wrench also holds the guiding hand's force).
+CONTACT_REACTION: Final = "contact_reaction"
+CONTACT_REACTION_NAMES: Final = ("fx", "fy", "fz")
+# CONTACT: 1 on the frames inside a contact [touch-down, lift-off], else 0.
+CONTACT: Final = "contact"
 
 # ---- raw env observation keys (gymnasium side); LeRobot 0.6.1 maps agent_pos -> observation.state,
 # environment_state -> observation.environment_state, pixels -> observation.images.*, any other key k -> observation.k
@@ -89,6 +99,9 @@ UNITS: Final[dict[str, str]] = {
     ACTION: "x y z m, qw qx qy qz unit quaternion, base frame; gripper 0 (open) .. 1 (closed)",
     SOURCE_TIMESTAMP: "s, time of the source recording (before resampling)",
     SEGMENT_INDEX: "motion segment of the frame, 0-based, steps of 1 (`forcemap segment`, or a demonstrator's phase)",
+    CONTACT_REACTION: "N, base frame; the contact reaction on the robot (points away from the surface), 0 outside "
+    "contacts; estimated without the guiding hand in kinesthetic recordings",
+    CONTACT: "1 inside a contact [touch-down, lift-off], else 0",
     # LeRobot 0.6's language columns; `forcemap segment` writes one subtask row per segment and style
     "language_persistent": "LeRobot subtask rows, 'segment k of n' per segmentation style",
     "language_events": "LeRobot language events (none written by forcemap)",

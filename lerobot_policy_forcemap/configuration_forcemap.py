@@ -108,10 +108,14 @@ class ForceMapConfig(PreTrainedConfig):
     Units: metres, seconds, newtons; quaternions w first; the gripper from 0 (open) to 1 (closed).
 
     Args:
-        pose_key, force_key, gripper_key, gripper_index, finger_force_key, env_state_key, joints_key:
+        pose_key, force_key, reaction_key, gripper_key, gripper_index, finger_force_key, env_state_key,
+        joints_key:
             dataset / observation features (``skill.params.Columns``). The pose defaults to the
             commanded target ``action``: with a compliant controller the measured pose lags it by F/K
             in contact. ``force_key=''`` fits plain elastic maps.
+            ``reaction_key``: the dataset's contact reaction (``contact_reaction``: a kinesthetic
+            recording's wrench without the guiding hand), which the force points read instead of the
+            wrench when the dataset has it (``''``: the wrench).
         robot_pose_key: the current end-effector pose ``[x y z qw qx qy qz]`` at reset (the start of
             the reproduction is moved to it).
         episodes: the demonstrations to learn from (default ``[0]``: one shot); several are mapped
@@ -119,7 +123,9 @@ class ForceMapConfig(PreTrainedConfig):
             when this is left at its default (``train_hooks.py``).
         segments, segment_column, stream_weights, stream_thresholds, segmentation_window_s,
             segmentation_mode, changepoints, segmentation_seed, min_segment_s: segmentation
-            (``skill.params.Segmentation``).
+            (``skill.params.Segmentation``; windows in seconds, ``segmentation.DEFAULT_TIMING``, the
+            defaults of ``forcemap segment`` too). The ``touch_down`` / ``lift_off`` streams run on
+            datasets with a ``contact`` column.
         n_nodes, nodes_per_second, min_nodes, lam, mu, delta, f_contact, stiffness, rho_max,
             force_limit, time_scale, max_iter: the arm maps (``skill.params.ArmMap``). stiffness k
             (N/m): a node in steady contact with force F is lifted by F/k; reproduced with a compliant
@@ -169,6 +175,7 @@ class ForceMapConfig(PreTrainedConfig):
     # ---- features
     pose_key: str = _COLUMNS.pose_key
     force_key: str = _COLUMNS.force_key
+    reaction_key: str = _COLUMNS.reaction_key
     gripper_key: str = _COLUMNS.gripper_key
     gripper_index: int = _COLUMNS.gripper_index
     finger_force_key: str = _COLUMNS.finger_force_key

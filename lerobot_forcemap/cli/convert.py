@@ -75,6 +75,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="merge",
         help="samples repeating the previous timestamp: collapse them with a warning (default) or fail",
     )
+    parser.add_argument(
+        "--teleoperated",
+        action="store_true",
+        help="no hand guided the tool: the contact reaction is the tared wrench (default: kinesthetic, the "
+        "guiding hand's force is estimated and left out of it)",
+    )
     parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
 
 
@@ -96,6 +102,7 @@ def run(args: argparse.Namespace) -> int:
         gripper_full_scale=args.gripper_full_scale,
         overwrite=args.overwrite,
         on_duplicate=args.on_duplicate_timestamps,
+        kinesthetic=not args.teleoperated,
     )
     if args.gbti:
         if len(args.inputs) != 1:

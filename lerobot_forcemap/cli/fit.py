@@ -13,7 +13,9 @@ episodes, then ``save_pretrained`` writes ``config.json`` + ``model.safetensors`
 metadata is read once, by ``lerobot_forcemap.data.reader.read_meta`` (what ``make_policy`` needs of a
 ``LeRobotDatasetMetadata``: features, stats, repo id, root), and the policy reads the chosen episodes'
 columns through it. It skips ``lerobot-train``'s data loader, optimiser step and training state (nothing
-to train), and adds ``fit_report.json`` (segments, anchors, EM diagnostics).
+to train), and adds ``fit_report.json`` (``lerobot_forcemap.skill.report.FitReport.to_json``: segments,
+changepoints in frames and seconds, anchors, EM diagnostics, contact intervals, the guiding hand's share
+of the wrench, nodes below a demonstrated surface, gaps between segments).
 """
 
 from __future__ import annotations
@@ -127,7 +129,7 @@ def fit_policy(
     policy.save_pretrained(out)
     preprocessor.save_pretrained(out)
     postprocessor.save_pretrained(out)
-    _write_fit_report(out, meta, cfg, policy.fit_report)
+    _write_fit_report(out, meta, policy.fit_report)
     t3 = time.perf_counter()
     return FitResult(out=out, policy=policy, load_s=t1 - t0, fit_s=t2 - t1, save_s=t3 - t2)
 
@@ -141,17 +143,13 @@ def _check_paths(dataset: str | Path, out: str | Path, *, overwrite: bool) -> tu
     return out, require_dataset_root(dataset, "--dataset")
 
 
-def _write_fit_report(out: Path, meta: DatasetMeta, cfg: Any, report: Any) -> None:
+def _write_fit_report(out: Path, meta: DatasetMeta, report: Any) -> None:
     (out / "fit_report.json").write_text(
         json.dumps(
             {
                 "dataset": str(meta.root.resolve()),  # forcemap eval's default comparison, from any cwd
                 "dataset_repo_id": meta.repo_id,  # forcemap push's model card links it unless local/...
-                "episodes": list(report.episodes),
-                "fps": cfg.fps,
-                "changepoints": [c.tolist() for c in report.changepoints],
-                "segments": report.summary(),
-                "fit_seconds": report.seconds,
+                **report.to_json(),  # segments, changepoints (frames and s), contacts, gaps
             },
             indent=2,
         )

@@ -2,18 +2,21 @@
 
     forcemap segment --dataset outputs/gbti --weights wrist_force=0.35 finger_force=0.35 [--dry-run]
 
-The work is :func:`lerobot_forcemap.data.segment.segment_dataset`; this module is its argparse.
+The work is :func:`lerobot_forcemap.data.segment.segment_dataset`; this module is its argparse. The
+windows are given in seconds (``--window-s`` ...; defaults ``segmentation.DEFAULT_TIMING``, the forcemap
+policy's) and converted at the dataset's fps; ``--window`` ... in frames replace them.
 """
 
 from __future__ import annotations
 
 import argparse
 from collections.abc import Sequence
+from dataclasses import replace
 
 from lerobot_forcemap import layout
 from lerobot_forcemap.data.reader import read_meta
 from lerobot_forcemap.data.segment import SUBTASK_STYLES, EpisodeSegments, segment_dataset
-from lerobot_forcemap.segmentation import AUTHORS_WINDOW_S, SegmentationConfig
+from lerobot_forcemap.segmentation import DEFAULT_TIMING, SegmentationConfig, SegmentationTiming
 from lerobot_forcemap.segmentation.config import CHANGEPOINT_METHODS, MODES
 
 __all__ = ["add_arguments", "run"]
@@ -47,7 +50,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         nargs="+",
         metavar="NAME=V",
         help="stream weights, e.g. joints=0 position=0.1 wrist_force=0.35 gripper=0.35 finger_force=0.2 "
-        "(unlisted streams: 1)",
+        "touch_down=4 lift_off=4 (unlisted streams: 1, the contact events of a dataset with a contact "
+        "column: 4)",
     )
     parser.add_argument(
         "--thresholds", nargs="+", metavar="NAME=V", help="keypoint thresholds (fractions of max)"
@@ -63,15 +67,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--changepoints",
         choices=CHANGEPOINT_METHODS,
         default="peaks",
-        help="peaks (default, deterministic: maxima of the combined density at least --window frames "
+        help="peaks (default, deterministic: maxima of the combined density at least a window "
         "apart) or sample (the paper: random draws from it, clustered; see --seed)",
     )
-    parser.add_argument("--window", type=int, default=64, help="jerk moving-average window, frames")
-    parser.add_argument("--min-run", type=int, default=64, help="frames a run above threshold must last")
-    parser.add_argument(
-        "--grace", type=int, default=4, help="frames a run may dip below threshold without ending (default 4)"
-    )
-    parser.add_argument("--min-segment-length", type=int, default=None, help="frames (default window/2)")
+    _add_timing_arguments(parser)
     parser.add_argument(
         "--seed",
         type=int,
@@ -89,16 +88,65 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dry-run", action="store_true", help="print the changepoints, write nothing")
 
 
-def run(args: argparse.Namespace) -> int:
-    config = SegmentationConfig(
-        window=args.window,
-        min_run=args.min_run,
-        grace=args.grace,
-        mode=args.mode,
-        changepoints=args.changepoints,
-        seed=args.seed,
-        min_segment_length=args.min_segment_length,
+def _add_timing_arguments(parser: argparse.ArgumentParser) -> None:
+    """The window, run, grace and shortest segment: in seconds, or in frames (which replace them)."""
+    d = DEFAULT_TIMING
+    parser.add_argument(
+        "--window-s",
+        type=float,
+        default=d.window_s,
+        help=f"jerk moving-average window, s (default {d.window_s:g})",
     )
+    parser.add_argument(
+        "--min-run-s",
+        type=float,
+        default=d.min_run_s,
+        help="s a run above threshold must last (default the window)",
+    )
+    parser.add_argument(
+        "--grace-s",
+        type=float,
+        default=d.grace_s,
+        help="s a run may dip below threshold (default 4/64 of the window)",
+    )
+    parser.add_argument(
+        "--min-segment-s",
+        type=float,
+        default=d.min_segment_s,
+        help="shortest segment, s (default half the window)",
+    )
+    parser.add_argument("--window", type=int, default=None, help="the window in frames (replaces --window-s)")
+    parser.add_argument(
+        "--min-run", type=int, default=None, help="frames a run must last (default: the window)"
+    )
+    parser.add_argument("--grace", type=int, default=None, help="frames a run may dip (replaces --grace-s)")
+    parser.add_argument(
+        "--min-segment-length", type=int, default=None, help="frames (replaces --min-segment-s)"
+    )
+
+
+def _config(args: argparse.Namespace, fps: float) -> SegmentationConfig:
+    """The settings in seconds at the dataset's ``fps``, the ones given in frames put in."""
+    timing = SegmentationTiming(
+        window_s=args.window_s,
+        min_run_s=args.min_run_s,
+        grace_s=args.grace_s,
+        min_segment_s=args.min_segment_s,
+    )
+    config = timing.config(fps, mode=args.mode, changepoints=args.changepoints, seed=args.seed)
+    frames = {
+        "window": args.window,
+        # a run lasts the window unless told otherwise, in frames or in seconds
+        "min_run": args.window if args.min_run is None and args.min_run_s is None else args.min_run,
+        "grace": args.grace,
+        "min_segment_length": args.min_segment_length,
+    }
+    return replace(config, **{k: v for k, v in frames.items() if v is not None})
+
+
+def run(args: argparse.Namespace) -> int:
+    # the windows are seconds at the dataset's fps; a wrong path is named before the heavy imports
+    config = _config(args, float(read_meta(args.dataset, repo_id=args.repo_id, name="--dataset").fps))
     segs = segment_dataset(
         args.dataset,
         weights=_parse_pairs(args.weights, "weights"),
@@ -151,13 +199,12 @@ def _print_notes(
             f"{shortest} (frames) dropped them all: lower it to keep them"
         )
     if single:
-        # --window/--min-run count frames: the authors' 64 are 0.39 s at their ~166 Hz recorder
-        fps = float(read_meta(args.dataset).fps)
-        scaled = max(5, int(round(AUTHORS_WINDOW_S * fps)))
+        fps = float(read_meta(args.dataset, repo_id=args.repo_id).fps)
+        default = DEFAULT_TIMING.config(fps)
         print(
-            f"note: {len(single)} of {len(segs)} episode(s) found no changepoint. --window {args.window} and "
-            f"--min-run {args.min_run} count frames; the authors' 64 frames are {AUTHORS_WINDOW_S:.2f} s at "
-            f"their ~166 Hz, which at this dataset's {fps:g} fps is --window {scaled} --min-run {scaled} "
+            f"note: {len(single)} of {len(segs)} episode(s) found no changepoint with a window of "
+            f"{config.window} frames and runs of {config.min_run} frames; the default {DEFAULT_TIMING.window_s:g} s "
+            f"at this dataset's {fps:g} fps is --window {default.window} --min-run {default.min_run} "
             "(the forcemap policy's window at this rate; its own segments='auto' reads the commanded action, "
             "not the measured pose, so its cuts can differ: fit with segments='dataset' to use these labels)"
         )

@@ -13,10 +13,15 @@ tool frame, rotate it to the base frame, low-pass it against aliasing and resamp
                              frame repeats its own pose: hold)
     source_timestamp         s since the source recording's first sample (its epoch time is in
                              meta/forcemap_sources.json)
+    contact_reaction         the contact reaction (N, base frame, on the robot), estimated at the source
+                             rate without the guiding hand's force (:mod:`.contacts`); 0 outside contacts
+    contact                  1 on the frames inside a contact [touch-down, lift-off], else 0
 
 Recordings without a gripper stream get gripper opening 0.0 (open) with a warning and a note in the
 sources file. Per-episode provenance (file, GBTI key, tare window and bias, trimmed seconds, collapsed
-duplicate timestamps, warnings) goes to ``meta/forcemap_sources.json``; units and frames to the card.
+duplicate timestamps, warnings, the contact intervals and surfaces, the hand model's fit) goes to
+``meta/forcemap_sources.json``; units and frames to the card. Kinesthetic recordings (a hand guides the
+tool) are the default; ``kinesthetic=False`` (``--teleoperated``) takes the tared wrench as the reaction.
 """
 
 from __future__ import annotations
@@ -35,7 +40,8 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from lerobot_forcemap import layout
-from lerobot_forcemap._validation import check_real, fail, is_real
+from lerobot_forcemap._validation import check_bool, check_real, fail, is_real
+from lerobot_forcemap.data.contacts import ContactFeatures, recording_contact_features
 from lerobot_forcemap.data.recorder import GbtiKey, Recording, gbti_keys, iter_gbti_demos, read_recording
 from lerobot_forcemap.data.schema import add_episode, dataset_features, write_dataset_card
 from lerobot_forcemap.data.staging import check_output, partial_dir, replace_dir
@@ -222,13 +228,15 @@ def convert_episodes(
     overwrite: bool = False,
     progress: bool = True,
     total: int | None = None,
+    kinesthetic: bool = True,
 ) -> ConversionResult:
     """Write every source as one episode of a new LeRobot v3 dataset at ``out``.
 
     The feature set follows the first source (finger force iff it has one); a later source that does
     not match raises ``ValueError`` naming it. ``out`` must not exist unless ``overwrite``; the dataset
     is written next to it (``.<name>.partial``) and replaces it only once complete, so a failed run
-    leaves an existing ``out`` as it was.
+    leaves an existing ``out`` as it was. ``kinesthetic``: a hand guided the tool (its force is left out
+    of the contact reaction, :mod:`.contacts`); False for teleoperated recordings.
     """
     out = Path(out)
     if not (is_real(fps) and float(fps).is_integer() and fps > 0):
@@ -236,18 +244,14 @@ def convert_episodes(
     fps = int(fps)
     # a bad scale is the flag's fault, not the first recording's
     check_real("--gripper-full-scale", gripper_full_scale, low=0, low_open=True)
+    kinesthetic = check_bool("kinesthetic (--teleoperated)", kinesthetic)
     check_output(out, overwrite=overwrite)
     work = partial_dir(out)
-    settings = {
-        "fps": fps,
-        "tare": tare,
-        "force_lowpass_hz": force_lowpass_hz,
-        "gripper_full_scale": gripper_full_scale,
-        "wrench_sign": LAB_WRENCH_SIGN,
-        "on_duplicate_timestamps": on_duplicate,
-    }
-    align = partial(_align_source, fps=fps, tare=tare, force_lowpass_hz=force_lowpass_hz,
+    aligning = dict(fps=fps, tare=tare, force_lowpass_hz=force_lowpass_hz,
                     gripper_full_scale=gripper_full_scale, on_duplicate=on_duplicate)  # fmt: skip
+    settings = {**aligning, "kinesthetic": kinesthetic, "wrench_sign": LAB_WRENCH_SIGN}
+    settings["on_duplicate_timestamps"] = settings.pop("on_duplicate")
+    align = partial(_prepare_source, kinesthetic=kinesthetic, **aligning)
     sources = tqdm(sources, total=total, desc="convert", unit="episode", disable=not progress)
     try:
         features, records, n_frames = _write_dataset(sources, work, align, repo_id, fps, robot_type)
@@ -266,7 +270,7 @@ def convert_episodes(
 def _write_dataset(
     sources: Iterable[EpisodeSource],
     work: Path,
-    align: Callable[[int, EpisodeSource], tuple[AlignedRecording, float | None]],
+    align: Callable[[int, EpisodeSource], tuple[AlignedRecording, float | None, ContactFeatures]],
     repo_id: str,
     fps: int,
     robot_type: str,
@@ -289,10 +293,12 @@ def _write_dataset(
                         f"episode {index} ({src.source}): finger force {'missing' if finger else 'present'}, "
                         "unlike the first episode; convert these recordings into separate datasets"
                     )
-                aligned, lowpass = align(index, src)
-                arrays = episode_arrays(aligned, finger_force=finger)
+                aligned, lowpass, contact = align(index, src)
+                arrays = {**episode_arrays(aligned, finger_force=finger), **contact.arrays}
                 n = add_episode(dataset, arrays, src.task, episode=f"{index} ({src.recording.name})")
-                records.append(_episode_record(index, src, aligned, n, lowpass))
+                records.append(
+                    {**_episode_record(index, src, aligned, n, lowpass), "contact": contact.record}
+                )
                 n_frames += n
             if dataset is None:
                 raise ValueError("no recordings to convert")
@@ -332,11 +338,28 @@ def _create_dataset(work: Path, repo_id: str, fps: int, robot_type: str, *, fing
         layout.state_names(layout.UR5E_JOINT_NAMES),
         finger_force_names=FINGER_FORCE_NAMES if finger else None,
         source_timestamp=True,
+        contacts=True,
     )
     dataset = LeRobotDataset.create(
         repo_id, fps=fps, features=features, root=work, robot_type=robot_type, use_videos=False
     )
     return features, dataset
+
+
+def _prepare_source(
+    index: int, src: EpisodeSource, *, kinesthetic: bool, **align: Any
+) -> tuple[AlignedRecording, float | None, ContactFeatures]:
+    """One source aligned (:func:`_align_source`, ``align``: its settings) with its contact features
+    (:func:`.contacts.recording_contact_features`, at the source rate); errors name the episode."""
+    aligned, lowpass = _align_source(index, src, **align)
+    try:
+        contact = recording_contact_features(
+            src.recording, aligned, kinesthetic=kinesthetic, lowpass_hz=lowpass, tare=align["tare"],
+            gripper_full_scale=align["gripper_full_scale"], on_duplicate=align["on_duplicate"],
+        )  # fmt: skip
+    except ValueError as err:
+        raise ValueError(f"episode {index} ({src.source}): contacts: {err}") from None
+    return aligned, lowpass, contact
 
 
 def _align_source(
@@ -389,6 +412,16 @@ def _refuse_output_holding_inputs(out: str | Path, inputs: Sequence[Path]) -> No
             raise ValueError(f"output {out} contains the input {p}; write the dataset somewhere else")
 
 
+_CONTACT_NOTE = {
+    True: "kinesthetic recordings: the wrist sensor also measures the guiding hand's force on the tool "
+    "(10-40 N while moving); it stays in `observation.force`. `contact_reaction` is the contact reaction "
+    "estimated without it at the source rate (0 outside contacts; inside, the part of the wrench beyond a "
+    "model of the hand, along the surface normal, clipped at 0: a lower bound, the reaction of a steady "
+    "press is not observable), `contact` the frames between a detected touch-down and lift-off; per "
+    f"episode the contact intervals, surfaces and the hand model's fit in `{SOURCES_FILE}`",
+    False: "teleoperated recordings (no hand on the tool): `contact_reaction` is the tared wrench's force, "
+    "`contact` the frames where its norm exceeds 2 N",
+}
 _TARE_WINDOW = {
     "auto": f"start window if the sensor is quiet there, force std < {TARE_QUIET_STD_N:g} N, else the end "
     "window if quiet, else the quieter of the two",
@@ -413,7 +446,7 @@ def _write_card(
     """The dataset card: what the conversion did (notes, from the conversion ``settings``), the episodes
     and their sources, the units."""
     tare = settings["tare"]
-    notes = {**_card_notes(records, settings["fps"], tare, settings["gripper_full_scale"]), **(extra or {})}
+    notes = {**_card_notes(records, settings), **(extra or {})}
     episodes_md = ["| episode | source | task | frames | tare window |", "|---|---|---|---|---|"]
     for r in records:
         src = r["name"] if r["gbti_key"] else Path(r["source"]).name
@@ -433,10 +466,10 @@ def _write_card(
     )
 
 
-def _card_notes(
-    records: Sequence[dict[str, Any]], fps: int, tare: str, gripper_full_scale: float
-) -> dict[str, str]:
-    """The card's notes on resampling, tare, frames, filtering, action, joints, gripper, what was dropped."""
+def _card_notes(records: Sequence[dict[str, Any]], settings: dict[str, Any]) -> dict[str, str]:
+    """The card's notes on resampling, tare, frames, filtering, contacts, action, joints, gripper, what was
+    dropped (``settings``: the conversion's)."""
+    fps, tare, gripper_full_scale = settings["fps"], settings["tare"], settings["gripper_full_scale"]
     lowpass = sorted({r["force_lowpass_hz"] for r in records}, key=lambda x: (x is None, x))
     if tare == "none":
         tare_note = "none (`--tare none`): `observation.force` keeps the sensor's bias"
@@ -454,9 +487,7 @@ def _card_notes(
         "(sign +1: pressing a button reads +z, away from the surface)",
         "Low-pass": f"zero-phase 2nd-order Butterworth on the base-frame wrench at the source rate before "
         f"resampling, cutoff {', '.join('none' if x is None else f'{x:g} Hz' for x in lowpass)}",
-        "Kinesthetic teaching": "the wrist sensor also measures the guiding hand's force on the tool while the "
-        "robot is moved by hand (typically 10-20 N); it is not separable from contact force and stays in "
-        "`observation.force`",
+        "Contacts": _CONTACT_NOTE[settings["kinesthetic"]],
         "Action": "absolute Cartesian target = the next frame's flange pose and gripper opening "
         "(the last frame holds its own)",
         "Joints": "observation.state joints in kinematic order (shoulder_pan .. wrist_3), reordered from the "

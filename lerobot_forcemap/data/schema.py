@@ -28,6 +28,7 @@ __all__ = [
     "FRAME_EXTRA_KEYS",
     "SEGMENT_INDEX_FEATURE",
     "SOURCE_TIMESTAMP_FEATURE",
+    "CONTACT_FEATURE",
     "dataset_features",
     "numeric_feature_keys",
     "validate_frame",
@@ -54,6 +55,9 @@ SEGMENT_INDEX_FEATURE: dict[str, Any] = {"dtype": "int64", "shape": (1,), "names
 # ``ds[i]`` hands every float column back as float32, which would round an epoch time (1.7e9 s) to
 # 128 s; relative seconds keep ~2 µs resolution over a minute.
 SOURCE_TIMESTAMP_FEATURE: dict[str, Any] = {"dtype": "float32", "shape": (1,), "names": None}
+# Per-frame contact flag (1 inside a contact, int64 scalar column) and the contact reaction beside it;
+# neither under ``observation.``: they are computed in hindsight (``layout.CONTACT``).
+CONTACT_FEATURE: dict[str, Any] = {"dtype": "int64", "shape": (1,), "names": None}
 
 
 def _vector(names: Sequence[str], what: str) -> dict[str, Any]:
@@ -74,6 +78,7 @@ def dataset_features(
     segment_index: bool = False,
     source_timestamp: bool = False,
     image_dtype: str = "video",
+    contacts: bool = False,
 ) -> dict[str, dict[str, Any]]:
     """LeRobot ``features`` dict for a force dataset (pass it to ``LeRobotDataset.create``).
 
@@ -83,7 +88,8 @@ def dataset_features(
     ``image_shapes`` maps a camera name to ``(H, W, C)`` and adds ``observation.images.<cam>``
     with ``image_dtype`` ``"video"`` (mp4) or ``"image"`` (png in parquet). ``segment_index`` adds the
     int64 ``layout.SEGMENT_INDEX`` column, ``source_timestamp`` the float32 ``layout.SOURCE_TIMESTAMP``
-    (seconds since the source recording's first sample).
+    (seconds since the source recording's first sample), ``contacts`` the float32
+    ``layout.CONTACT_REACTION`` (3) and the int64 ``layout.CONTACT`` flag.
 
     Always present: ``observation.state``, ``observation.ee_pose`` (7), ``observation.force`` (6),
     ``action`` (8), all float32, names from :mod:`layout`.
@@ -116,6 +122,9 @@ def dataset_features(
         features[layout.SEGMENT_INDEX] = dict(SEGMENT_INDEX_FEATURE)
     if source_timestamp:
         features[layout.SOURCE_TIMESTAMP] = dict(SOURCE_TIMESTAMP_FEATURE)
+    if contacts:
+        features[layout.CONTACT_REACTION] = _vector(layout.CONTACT_REACTION_NAMES, layout.CONTACT_REACTION)
+        features[layout.CONTACT] = dict(CONTACT_FEATURE)
     return features
 
 

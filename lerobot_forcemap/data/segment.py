@@ -3,7 +3,10 @@
 Streams per episode (those the dataset has): ``joints`` (observation.state without its last entry),
 ``position`` (observation.ee_pose x y z), ``wrist_force`` (observation.force fx fy fz), ``gripper``
 (observation.state's last entry) and ``finger_force`` (observation.finger_force), all on the
-episode's LeRobot ``timestamp``. They go to :func:`lerobot_forcemap.segmentation.segment_streams`.
+episode's LeRobot ``timestamp``; with a ``contact`` column (``forcemap convert``, ``forcemap record``)
+also the ``touch_down`` and ``lift_off`` event streams at its contact edges. They go to
+:func:`lerobot_forcemap.segmentation.segment_streams`, by default with the settings in seconds of
+``segmentation.DEFAULT_TIMING`` at the dataset's fps (the forcemap policy's defaults).
 
 Write-back (the layout of LeRobot 0.6.1's ``datasets/language.py`` and ``feature_utils.py``):
 
@@ -45,6 +48,7 @@ from tqdm.auto import tqdm
 
 from lerobot_forcemap import layout
 from lerobot_forcemap._validation import check_choice
+from lerobot_forcemap.contact import mask_to_intervals
 from lerobot_forcemap.data.reader import (
     EPISODES_DIR,
     STATS_FILE,
@@ -58,7 +62,18 @@ from lerobot_forcemap.data.reader import (
 from lerobot_forcemap.data.schema import SEGMENT_INDEX_FEATURE, refresh_dataset_card
 from lerobot_forcemap.data.staging import edit_dir
 from lerobot_forcemap.jsonfile import read_json_object
-from lerobot_forcemap.segmentation import SegmentationConfig, SegmentationResult, Stream, segment_streams
+from lerobot_forcemap.segmentation import (
+    DEFAULT_TIMING,
+    EVENT_STREAM_WEIGHT,
+    EVENT_STREAMS,
+    SIGNAL_STREAM_THRESHOLDS,
+    EventStream,
+    SegmentationConfig,
+    SegmentationResult,
+    Stream,
+    contact_event_streams,
+    segment_streams,
+)
 
 __all__ = [
     "STREAM_THRESHOLDS",
@@ -72,15 +87,8 @@ __all__ = [
     "read_subtasks",
 ]
 
-# The original authors' UR5e thresholds: joints 0.20, Cartesian 0.25, wrist force 0.15, gripper 0.10;
-# finger force has none there and takes the wrist force's.
-STREAM_THRESHOLDS: dict[str, float] = {
-    "joints": 0.20,
-    "position": 0.25,
-    "wrist_force": 0.15,
-    "gripper": 0.10,
-    "finger_force": 0.15,
-}
+#: the original authors' UR5e thresholds (one definition, ``segmentation.SIGNAL_STREAM_THRESHOLDS``)
+STREAM_THRESHOLDS: dict[str, float] = SIGNAL_STREAM_THRESHOLDS
 SUBTASK_STYLES = ("motion", "subtask")
 _ROLE = "assistant"
 _OUR_CONTENT = re.compile(r"segment \d+ of \d+")
@@ -119,6 +127,12 @@ def stream_columns(features: Mapping[str, Mapping[str, Any]]) -> dict[str, tuple
     return out
 
 
+def stream_names(features: Mapping[str, Mapping[str, Any]]) -> tuple[list[str], list[str]]:
+    """The signal streams (:func:`stream_columns`) and the event streams (``touch_down``, ``lift_off``:
+    with a ``contact`` column) this dataset's features allow."""
+    return list(stream_columns(features)), list(EVENT_STREAMS) if layout.CONTACT in features else []
+
+
 def episode_streams(
     columns: Mapping[str, np.ndarray],
     times: np.ndarray,
@@ -126,18 +140,20 @@ def episode_streams(
     *,
     weights: Mapping[str, float] | None = None,
     thresholds: Mapping[str, float] | None = None,
-) -> list[Stream]:
+) -> list[Stream | EventStream]:
     """Segmentation streams of one episode. ``columns``: ``{feature key: (T, dim)}``, ``times`` (T,) s.
 
-    Weights default to 1 for every available stream; ``weights`` overrides by stream name (an unknown
-    name raises ``ValueError`` listing the available ones). Thresholds default to ``STREAM_THRESHOLDS``.
+    Weights default to 1 for every available signal stream and ``EVENT_STREAM_WEIGHT`` for the event
+    streams; ``weights`` overrides by stream name (an unknown name raises ``ValueError`` listing the
+    available ones). Thresholds (signal streams only) default to ``STREAM_THRESHOLDS``.
     """
     available = stream_columns(features)
-    for what, given in (("weight", weights), ("threshold", thresholds)):
-        unknown = sorted(set(given or {}) - set(available))
+    signals, events = stream_names(features)
+    for what, given, known in (("weight", weights, signals + events), ("threshold", thresholds, signals)):
+        unknown = sorted(set(given or {}) - set(known))
         if unknown:
-            raise ValueError(f"{what} for unknown stream(s) {unknown}; this dataset has {sorted(available)}")
-    streams = []
+            raise ValueError(f"{what} for unknown stream(s) {unknown}; this dataset has {sorted(known)}")
+    streams: list[Stream | EventStream] = []
     for name, (key, cols) in available.items():
         values = np.asarray(columns[key], dtype=np.float64)
         values = values.reshape(len(values), -1)[:, cols]
@@ -150,25 +166,34 @@ def episode_streams(
                 threshold=float((thresholds or {}).get(name, STREAM_THRESHOLDS[name])),
             )
         )
+    if events:
+        contact = np.asarray(columns[layout.CONTACT]).reshape(len(times), -1)[:, 0] > 0
+        chosen = {name: float(w) for name, w in (weights or {}).items() if name in events}
+        streams += contact_event_streams(times, mask_to_intervals(times, contact), weights=chosen)
     return streams
 
 
 def _check_stream_settings(
-    available: Sequence[str], weights: Mapping[str, float] | None, thresholds: Mapping[str, float] | None
+    signals: Sequence[str],
+    events: Sequence[str],
+    weights: Mapping[str, float] | None,
+    thresholds: Mapping[str, float] | None,
 ) -> None:
     """Stream names and values of ``--weights`` / ``--thresholds``, checked once (a bad value is the
-    flag's fault, not the first episode's)."""
-    for flag, given in (("--weights", weights), ("--thresholds", thresholds)):
-        unknown = sorted(set(given or {}) - set(available))
+    flag's fault, not the first episode's); event streams take a weight, no threshold."""
+    available = [*signals, *events]
+    for flag, given, known in (("--weights", weights, available), ("--thresholds", thresholds, signals)):
+        unknown = sorted(set(given or {}) - set(known))
         if unknown:
-            raise ValueError(f"{flag}: unknown stream(s) {unknown}; this dataset has {sorted(available)}")
+            raise ValueError(f"{flag}: unknown stream(s) {unknown}; this dataset has {sorted(known)}")
     for flag, given, field in (("--weights", weights, "weight"), ("--thresholds", thresholds, "threshold")):
         for name, value in (given or {}).items():
             try:  # Stream's own checks (weight finite >= 0 and not huge, threshold in (0, 1])
                 Stream(name, np.zeros(2), np.arange(2.0), **{field: value})
             except ValueError as err:
                 raise ValueError(f"{flag}: {err}") from None
-    if not any((weights or {}).get(name, 1.0) > 0 for name in available):
+    default = {**dict.fromkeys(signals, 1.0), **dict.fromkeys(events, EVENT_STREAM_WEIGHT)}
+    if not any((weights or {}).get(name, default[name]) > 0 for name in available):
         raise ValueError(
             f"--weights: every stream has weight 0 ({sorted(available)}); one needs a weight > 0"
         )
@@ -184,14 +209,15 @@ def _stream_keys(
         raise ValueError(
             f"{meta.root}: no feature to segment on (need {layout.OBS_STATE}, {layout.OBS_FORCE}, ...)"
         )
-    _check_stream_settings(list(available), weights, thresholds)
+    signals, events = stream_names(meta.features)
+    _check_stream_settings(signals, events, weights, thresholds)
     if not {layout.OBS_FORCE, layout.OBS_FINGER_FORCE} & set(meta.features):
         warnings.warn(
             f"{meta.root}: no force feature ({layout.OBS_FORCE} or {layout.OBS_FINGER_FORCE}); segmenting on "
             f"{', '.join(sorted(available))} only",
             stacklevel=3,
         )
-    return sorted({key for key, _ in available.values()})
+    return sorted({key for key, _ in available.values()} | ({layout.CONTACT} if events else set()))
 
 
 def segment_dataset(
@@ -209,9 +235,11 @@ def segment_dataset(
 ) -> list[EpisodeSegments]:
     """Segment the episodes (all, or ``episodes``) of the dataset at ``root``; write them back if ``write``
     (``segment_index``, plus LeRobot subtasks of ``style`` if ``subtasks``). ``repo_id``: the id the
-    dataset goes by."""
+    dataset goes by; ``config``: None takes ``segmentation.DEFAULT_TIMING`` at the dataset's fps."""
     meta = read_meta(root, repo_id=repo_id, name="--dataset")
     check_choice("style", style, SUBTASK_STYLES)
+    if config is None:
+        config = DEFAULT_TIMING.config(float(meta.fps))
     keys = _stream_keys(meta, weights, thresholds)
     chosen = list(range(meta.total_episodes)) if episodes is None else list(episodes)
     columns = read_columns(meta, chosen, [*keys, "timestamp", "episode_index"], name="--episodes")

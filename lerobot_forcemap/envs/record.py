@@ -6,8 +6,11 @@ generator is spawned from the same seed. Failed demonstrations are not written (
 demonstrations that hit the safety stop), and each skip is reported. fps = the task's control rate.
 
 Per frame: ``observation.state/ee_pose/force/environment_state`` (+ ``finger_force`` for grippers with
-fingertip sensors, + ``observation.images.front`` with ``images``), ``action``, and two ground-truth
-columns from ``layout``: ``contact_force`` (the env's filtered contact force) and ``demo_phase``.
+fingertip sensors, + ``observation.images.front`` with ``images``), ``action``, and ground-truth
+columns from ``layout``: ``contact_force`` (the env's filtered contact force), ``demo_phase``, and the
+contact features every dataset of the project has (``data.contacts.frame_contact_features``: no hand
+guides the tool, so ``contact_reaction`` is the contact force and ``contact`` the frames where it
+exceeds 2 N).
 Per episode, ``meta/forcemap_episodes.json`` holds the seed, the env's ``info`` force statistics
 (max / mean contact force, norm and per axis) and task metrics, and the demonstrator's parameters —
 the numbers a reproduction is compared with. The dataset is written beside ``out`` and moved there
@@ -161,6 +164,7 @@ def _dataset_features(base, images: bool, image_size: int) -> dict[str, dict[str
         finger_force_names=names.get(ENV_FINGER_FORCE),
         env_state_names=names[ENV_STATE],
         image_shapes={CAMERA: (image_size, image_size, 3)} if images else None,
+        contacts=True,
     )
     features[CONTACT_FORCE] = {"dtype": "float32", "shape": (3,), "names": list(CONTACT_FORCE_NAMES)}
     features[DEMO_PHASE] = {"dtype": "int64", "shape": (1,), "names": None}
@@ -205,6 +209,7 @@ def _record_episodes(env, dataset, features, spec: TaskSpec, episodes, seed, lim
     returns the result and the demonstrator class. ``features``: the recorded columns."""
     from tqdm import tqdm
 
+    from ..data.contacts import frame_contact_features
     from ..data.schema import add_episode
 
     result = RecordResult(root=root, task=spec.name, n_episodes=0, seeds=[], skipped_seeds=[])
@@ -225,7 +230,11 @@ def _record_episodes(env, dataset, features, spec: TaskSpec, episodes, seed, lim
                     stacklevel=4,
                 )
                 continue
-            arrays = {k: np.asarray([row[k] for row in episode.trace]) for k in features}
+            arrays = {
+                k: np.asarray([row[k] for row in episode.trace]) for k in features if k in episode.trace[0]
+            }
+            times = np.arange(len(episode.trace)) / spec.control_hz
+            arrays.update(frame_contact_features(times, arrays[OBS_EE_POSE][:, :3], arrays[CONTACT_FORCE]))
             n = add_episode(dataset, arrays, env.unwrapped.task_description, episode=result.n_episodes)
             result.episodes.append(episode_record(info, ep_seed, n, demo.describe()))
             result.seeds.append(ep_seed)
@@ -371,6 +380,8 @@ def _write_card(result: RecordResult, base, meta: dict[str, Any], images: bool) 
             "demonstration forces": f"max {s['max_contact_force']['mean']:.1f} ± {s['max_contact_force']['std']:.1f} N, "
             f"mean {s['mean_contact_force']['mean']:.2f} ± {s['mean_contact_force']['std']:.2f} N per episode",
             f"`{CONTACT_FORCE}`": "the env's low-passed summed contact force (N, base frame, reaction on the robot)",
+            "`contact_reaction`, `contact`": "the same force as the contact reaction the fit reads (no hand on the "
+            "tool), and the frames where its norm exceeds 2 N",
             f"`{DEMO_PHASE}`": "scripted phase index: "
             + ", ".join(f"{i} {p}" for i, p in enumerate(meta["phases"])),
             "per-episode metrics": f"meta/{EPISODES_FILE}",

@@ -124,11 +124,70 @@ def _stream_times(name: str, data: object, n_frames: int) -> np.ndarray:
     return times
 
 
-def stream_list(streams: Iterable[Stream], caller: str) -> list[Stream]:
-    """The streams of one call to `caller` as a non-empty list of `Stream` (a bare array would fail
-    later with an AttributeError naming neither)."""
+@dataclass(frozen=True, eq=False)
+class EventStream:
+    """A stream whose keypoints are given: events at known times (a contact's touch-downs, or its
+    lift-offs), found by a detector that knows more than a jerk threshold can.
+
+    name:    unique name among the streams of one call
+    events:  (E,) event times in seconds, on the clock of ``times`` (E may be 0)
+    times:   (T,) sample times in seconds, the demonstration's time base (shared with the other streams)
+    weight:  importance v_i >= 0, as a `Stream`'s
+    sigma_s: std of the Gaussian put at each event, in seconds (None: the config's ``sigma``)
+
+    Its keypoints are the frames nearest to the events (`keypoints`), so its pmf has its Gaussians
+    exactly there: no derivative, threshold or run is involved, and no lead to correct. Errors name
+    the stream and field (``"EventStream('touch_down').events: ..."``).
+    """
+
+    name: str
+    events: np.ndarray
+    times: np.ndarray
+    weight: float = 1.0
+    sigma_s: float | None = None
+
+    def __post_init__(self) -> None:
+        name = check_str("EventStream.name", self.name, empty_ok=False)
+        where = f"EventStream({name!r})"
+        events = check_array(f"{where}.events", self.events, ndim=(0, 1), axes=("event",)).reshape(-1)
+        times = _stream_times(f"{where}.times", self.times, np.size(self.times))
+        if times.size < 2:
+            fail(f"{where}.times", f"hold at least 2 samples, got {times.size}")
+        for field, array in (("events", np.sort(events)), ("times", times)):
+            array = array.copy()
+            array.setflags(write=False)
+            object.__setattr__(self, field, array)
+        weight = check_real(f"{where}.weight", self.weight, low=0.0, high=MAX_STREAM_WEIGHT)
+        object.__setattr__(self, "weight", weight)
+        sigma = check_real(f"{where}.sigma_s", self.sigma_s, low=0.0, low_open=True, none_ok=True, unit="s")
+        object.__setattr__(self, "sigma_s", sigma)
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.times.shape[0])
+
+    def keypoints(self) -> np.ndarray:
+        """(K,) sorted distinct frames nearest to the events (an event beyond either end: that end)."""
+        t = self.times
+        right = np.clip(np.searchsorted(t, self.events), 1, len(t) - 1)
+        left = right - 1
+        nearest = np.where(self.events - t[left] <= t[right] - self.events, left, right)
+        return np.unique(nearest).astype(np.int64)
+
+    def sigma_frames(self, default: float) -> float:
+        """The Gaussians' std in frames: ``sigma_s`` at the median sample step (at least `MIN_SIGMA`),
+        else ``default``."""
+        if self.sigma_s is None:
+            return float(default)
+        return max(self.sigma_s / float(np.median(np.diff(self.times))), MIN_SIGMA)
+
+
+def stream_list(streams: Iterable[Stream], caller: str, *, events_ok: bool = False) -> list[Stream]:
+    """The streams of one call to `caller` as a non-empty list of `Stream` (and `EventStream` when
+    ``events_ok``); a bare array would fail later with an AttributeError naming neither."""
     name = f"{caller}(streams=...)"
-    if isinstance(streams, Stream):
+    kinds = (Stream, EventStream) if events_ok else (Stream,)
+    if isinstance(streams, kinds):
         fail(name, "be a list of Streams (all of one demonstration), got one Stream: pass [stream]")
     try:
         streams = list(streams)
@@ -137,8 +196,9 @@ def stream_list(streams: Iterable[Stream], caller: str) -> list[Stream]:
     if not streams:
         fail(name, "hold at least one stream, got none")
     for i, s in enumerate(streams):
-        if not isinstance(s, Stream):
-            fail(name, f"hold Stream objects, got {type(s).__name__} at [{i}]")
+        if not isinstance(s, kinds):
+            what = "Stream or EventStream" if events_ok else "Stream"
+            fail(name, f"hold {what} objects, got {type(s).__name__} at [{i}]")
     return streams
 
 
@@ -146,6 +206,8 @@ def stream_list(streams: Iterable[Stream], caller: str) -> list[Stream]:
 #: defaults below count samples of such a recording; at another rate the same time span is other counts
 AUTHORS_RATE_HZ = 166.0
 AUTHORS_WINDOW_S = 64 / AUTHORS_RATE_HZ
+#: the authors' grace (4 samples) as a fraction of their window (64 samples)
+AUTHORS_GRACE_FRACTION = 4 / 64
 
 
 @dataclass(frozen=True, eq=False)
@@ -249,6 +311,93 @@ class SegmentationConfig:
     def rng(self) -> np.random.Generator:
         """The generator for sample mode: the given Generator itself, or a fresh one from the int seed."""
         return self.seed if isinstance(self.seed, np.random.Generator) else np.random.default_rng(self.seed)
+
+
+@dataclass(frozen=True)
+class SegmentationTiming:
+    """The segmentation's sample counts given in seconds, so that one setting means the same at 20, 50
+    or 166 Hz; :meth:`config` converts them at a recording's rate. `DEFAULT_TIMING` is what the policy
+    (``segmentation_window_s``, ``min_segment_s``) and ``forcemap segment`` use unless told otherwise.
+
+    window_s:      moving average, Savitzky-Golay window, default Gaussian sigma, peak distance (0.3 s:
+                   the shortest contacts of the UR5e presses last 0.34 s, and touch-down and lift-off
+                   need two peaks a window apart; at least 5 samples)
+    min_run_s:     a run above threshold lasts this long to give a keypoint (None: ``window_s``)
+    grace_s:       dips below threshold this short do not end a run (None: the authors' 4/64 of the
+                   window)
+    min_segment_s: shortest segment (None: half the window)
+    event_sigma_s: std of the Gaussian of an `EventStream` event (contact events are detected within a
+                   few tens of milliseconds)
+    """
+
+    window_s: float = 0.3
+    min_run_s: float | None = None
+    grace_s: float | None = None
+    min_segment_s: float | None = None
+    event_sigma_s: float = 0.05
+
+    def __post_init__(self) -> None:
+        positive = {"low": 0.0, "low_open": True, "unit": "s"}
+        check_real("SegmentationTiming.window_s", self.window_s, **positive)
+        check_real("SegmentationTiming.min_run_s", self.min_run_s, none_ok=True, **positive)
+        check_real("SegmentationTiming.grace_s", self.grace_s, low=0.0, none_ok=True, unit="s")
+        check_real("SegmentationTiming.min_segment_s", self.min_segment_s, none_ok=True, **positive)
+        check_real("SegmentationTiming.event_sigma_s", self.event_sigma_s, **positive)
+
+    def config(self, fps: float, **settings: object) -> SegmentationConfig:
+        """A `SegmentationConfig` at ``fps`` (Hz) with these counts and the other ``settings``
+        (mode, changepoints, seed, ...)."""
+        fps = check_real("fps", fps, low=0.0, low_open=True, unit="Hz")
+        window = max(5, int(round(self.window_s * fps)))
+        min_run = window if self.min_run_s is None else max(1, int(round(self.min_run_s * fps)))
+        grace = (
+            int(round(AUTHORS_GRACE_FRACTION * window))
+            if self.grace_s is None
+            else int(round(self.grace_s * fps))
+        )
+        shortest = None if self.min_segment_s is None else max(1, int(round(self.min_segment_s * fps)))
+        return SegmentationConfig(
+            window=window, min_run=min_run, grace=grace, min_segment_length=shortest, **settings
+        )
+
+
+DEFAULT_TIMING = SegmentationTiming()
+
+#: the original authors' UR5e keypoint thresholds of the signal streams (fractions of a stream's largest
+#: smoothed jerk: joints 0.20, Cartesian position 0.25, wrist force 0.15, gripper 0.10); finger force,
+#: which they did not use, takes the wrist force's
+SIGNAL_STREAM_THRESHOLDS: dict[str, float] = {
+    "position": 0.25,
+    "wrist_force": 0.15,
+    "joints": 0.20,
+    "gripper": 0.10,
+    "finger_force": 0.15,
+}
+#: the event streams of a recording with contact intervals: touch-downs and lift-offs, one stream each
+#: (two edges a few tenths of a second apart in one stream would merge into one peak)
+EVENT_STREAMS: tuple[str, ...] = ("touch_down", "lift_off")
+#: their default weight: 4 each against 1 for a signal stream, so that both edges of every contact
+#: become changepoints even where the signal streams see nothing (measured on the UR5e presses and wipes)
+EVENT_STREAM_WEIGHT = 4.0
+
+
+def contact_event_streams(
+    times: object,
+    intervals: object,
+    *,
+    weights: dict[str, float] | None = None,
+    timing: SegmentationTiming = DEFAULT_TIMING,
+) -> list[EventStream]:
+    """The ``touch_down`` and ``lift_off`` `EventStream` of contact ``intervals (K, 2)`` [touch-down,
+    lift-off] s on ``times (T,)`` s; ``weights`` by stream name (default `EVENT_STREAM_WEIGHT`), Gaussians
+    of ``timing.event_sigma_s``. A stream of weight 0 is left out."""
+    iv = check_array("intervals", intervals, ndim=(1, 2), axes=("contact", "edge")).reshape(-1, 2)
+    weights = {**dict.fromkeys(EVENT_STREAMS, EVENT_STREAM_WEIGHT), **(weights or {})}
+    return [
+        EventStream(name, iv[:, k], times, weight=weights[name], sigma_s=timing.event_sigma_s)
+        for k, name in enumerate(EVENT_STREAMS)
+        if weights[name] > 0
+    ]
 
 
 def check_config(config: object, caller: str) -> SegmentationConfig:

@@ -14,7 +14,7 @@ import numpy as np
 from .._validation import fail
 from .changepoints import _min_segment_length, _peaks, _sample
 from .combine import _combine, _stream_pmf
-from .config import SegmentationConfig, Stream, check_config, stream_list
+from .config import EventStream, SegmentationConfig, Stream, check_config, stream_list
 from .keypoints import _keypoints
 from .timebase import (
     TimeRepair,
@@ -32,8 +32,9 @@ class StreamResult:
     keypoints:   (K,) frame indices (original frames, after any time repair), sorted
     pmf:         (T,) the stream's changepoint pmf (computed for zero-weight streams too)
     floor_level: value of `pmf` far from keypoints
-    signal:      normalised moving-average jerk on the samples the derivative used
-    flat:        the smoothed jerk was zero everywhere (so no keypoints)
+    signal:      normalised moving-average jerk on the samples the derivative used (empty for an
+                 `EventStream`, whose threshold is NaN)
+    flat:        the smoothed jerk was zero everywhere (so no keypoints); an `EventStream` without events
     time_repair: what the duplicated-timestamp repair did, or None
     used:        weight > 0, so the stream entered the combined pmf
     """
@@ -155,10 +156,13 @@ def _analyse(stream: Stream, config: SegmentationConfig) -> StreamAnalysis:
     return StreamAnalysis(keypoints=keypoints, signal=found.signal, flat=found.flat, time_repair=repair)
 
 
-def checked_streams(streams: object, config: SegmentationConfig, caller: str) -> tuple[list[Stream], float]:
-    """The streams of one call to `caller`: a non-empty list of uniquely named `Stream` objects on one
-    time base. Returns them and the time tolerance used (s)."""
-    streams = stream_list(streams, caller)
+def checked_streams(
+    streams: object, config: SegmentationConfig, caller: str, *, events_ok: bool = False
+) -> tuple[list[Stream], float]:
+    """The streams of one call to `caller`: a non-empty list of uniquely named `Stream` objects (and
+    `EventStream` objects when ``events_ok``) on one time base. Returns them and the time tolerance
+    used (s)."""
+    streams = stream_list(streams, caller, events_ok=events_ok)
     names = [s.name for s in streams]
     if len(set(names)) != len(names):
         dup = sorted({n for n in names if names.count(n) > 1})
@@ -167,16 +171,17 @@ def checked_streams(streams: object, config: SegmentationConfig, caller: str) ->
 
 
 def segment_streams(
-    streams: Sequence[Stream], config: SegmentationConfig | None = None
+    streams: Sequence[Stream | EventStream], config: SegmentationConfig | None = None
 ) -> SegmentationResult:
-    """Segment one demonstration from its named streams (all sharing one time base of T frames).
+    """Segment one demonstration from its named streams (all sharing one time base of T frames):
+    `Stream` objects give keypoints from their jerk, `EventStream` objects at their given events.
 
     Raises ValueError for: no streams, duplicate names, differing T or sample times, all weights 0,
     streams shorter than the window, duplicated timestamps with duplicate_times="raise" (NaN/inf and
     decreasing times are caught when each `Stream` is built).
     """
     config = check_config(config, "segment_streams")
-    streams, tolerance = checked_streams(streams, config, "segment_streams")
+    streams, tolerance = checked_streams(streams, config, "segment_streams", events_ok=True)
     weights = np.array([s.weight for s in streams])
     if not (weights > 0).any():
         fail(
@@ -208,7 +213,7 @@ def segment_streams(
 
 
 def _stream_results(
-    streams: list[Stream], config: SegmentationConfig
+    streams: list[Stream | EventStream], config: SegmentationConfig
 ) -> tuple[dict[str, StreamResult], np.ndarray, np.ndarray]:
     """Per stream: keypoints, pmf and diagnostics; the pmfs (n, T) and their floor levels (n,)."""
     n_frames = streams[0].n_frames
@@ -216,12 +221,18 @@ def _stream_results(
     pmfs = np.empty((len(streams), n_frames))
     floors = np.empty(len(streams))
     for i, s in enumerate(streams):  # streams, not samples
-        found = _analyse(s, config)
-        pmfs[i], floors[i] = _stream_pmf(found.keypoints, n_frames, config.sigma_frames, config.floor)
+        if isinstance(s, EventStream):
+            keypoints = s.keypoints()
+            found = StreamAnalysis(keypoints, np.zeros(0), keypoints.size == 0, None)
+            sigma, threshold = s.sigma_frames(config.sigma_frames), float("nan")
+        else:
+            found = _analyse(s, config)
+            sigma, threshold = config.sigma_frames, s.threshold
+        pmfs[i], floors[i] = _stream_pmf(found.keypoints, n_frames, sigma, config.floor)
         per_stream[s.name] = StreamResult(
             name=s.name,
             weight=s.weight,
-            threshold=s.threshold,
+            threshold=threshold,
             keypoints=found.keypoints,
             pmf=pmfs[i],
             floor_level=float(floors[i]),

@@ -15,9 +15,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lerobot_forcemap import layout
+from lerobot_forcemap.contact import mask_to_intervals
 from lerobot_forcemap.skill.params import Columns, SkillParams
 
-__all__ = ["EpisodeArrays", "episodes_from_columns", "needed_columns", "finger_force_scalar"]
+__all__ = [
+    "EpisodeArrays",
+    "episodes_from_columns",
+    "needed_columns",
+    "finger_force_scalar",
+]
 
 Array = NDArray[np.float64]
 Frames = NDArray[np.int64]
@@ -31,10 +37,12 @@ class EpisodeArrays:
     """One demonstration (T frames).
 
     times (T,) s from the episode start; pose (T, 7) [x y z qw qx qy qz] (from ``pose_key``);
-    force (T, 3) N (zeros when the dataset has no force); gripper (T,) 0..1; gripper_force (T,) N
-    along the gripper coordinate (negative = towards open) or None; env_state (T, E) or None;
-    joints (T, J) or None; finger_force (T, F) or None (raw, for segmentation); segment_labels (T,)
-    or None (the dataset's ``segment_column``).
+    force (T, 3) N, the force points' force (zeros when the dataset has no force); gripper (T,) 0..1;
+    gripper_force (T,) N along the gripper coordinate (negative = towards open) or None; env_state
+    (T, E) or None; joints (T, J) or None; finger_force (T, F) or None (raw, for segmentation);
+    segment_labels (T,) or None (the dataset's ``segment_column``); wrench (T, 3) N: the measured wrist
+    wrench when ``force`` is the contact reaction (the segmentation's wrist-force stream; None: it is
+    ``force``); contact (T,) bool: the dataset's per-frame contact flag, or None.
     """
 
     episode: int
@@ -48,17 +56,31 @@ class EpisodeArrays:
     finger_force: Array | None
     segment_labels: NDArray[np.int64] | None
     has_force: bool = True
+    wrench: Array | None = None
+    contact: NDArray[np.bool_] | None = None
 
     @property
     def n_frames(self) -> int:
         return len(self.times)
+
+    @property
+    def measured_force(self) -> Array:
+        """The measured wrist force (T, 3) N: ``wrench`` when given, else ``force``."""
+        return self.force if self.wrench is None else self.wrench
+
+    def contact_intervals(self) -> Array:
+        """(K, 2) [first, last] frame times (s) of the runs of ``contact`` (empty without it)."""
+        if self.contact is None:
+            return np.zeros((0, 2))
+        return mask_to_intervals(self.times, self.contact)
 
 
 def needed_columns(params: SkillParams) -> list[str]:
     """Dataset columns the fit reads (those a dataset lacks are optional or refused later, by name)."""
     c = params.columns
     keys = [c.pose_key, c.gripper_key, *BOOKKEEPING]
-    keys += [c.force_key, c.finger_force_key, c.env_state_key, c.joints_key, c.segment_column]
+    keys += [c.force_key, c.reaction_key, c.finger_force_key, c.env_state_key, c.joints_key]
+    keys += [c.segment_column, layout.CONTACT]
     return [k for k in dict.fromkeys(keys) if k]
 
 
@@ -121,6 +143,7 @@ def _check_features(columns: Mapping[str, np.ndarray], features: Mapping[str, An
     # a name set by hand that the dataset lacks is a mistake, not a reason to fit without it
     for key, what, default in (
         (c.finger_force_key, "finger_force_key", layout.OBS_FINGER_FORCE),
+        (c.reaction_key, "reaction_key", layout.CONTACT_REACTION),
         (c.env_state_key, "env_state_key", layout.OBS_ENV_STATE),
         (c.joints_key, "joints_key", layout.OBS_STATE),
     ):
@@ -162,6 +185,9 @@ class _EpisodeReader:
     def __init__(self, columns: Mapping[str, np.ndarray], features: Mapping[str, Any], c: Columns):
         self.columns, self.features, self.c = columns, features, c
         self.has_force = bool(c.force_key) and c.force_key in columns
+        # with a contact reaction the force points read it, and the measured wrench stays beside it
+        self.reacting = self.has_force and bool(c.reaction_key) and self._has(c.reaction_key)
+        self.force_key = c.reaction_key if self.reacting else c.force_key
 
     def _has(self, key: str) -> bool:
         return key in self.features and key in self.columns
@@ -210,6 +236,8 @@ class _EpisodeReader:
             finger_force=finger,
             segment_labels=self._labels(e, rows, frames),
             has_force=self.has_force,
+            wrench=self._wrench(e, rows, frames),
+            contact=self._contact(e, rows, frames),
         )
 
     def _times(self, e: int, rows: Frames, frames: Frames) -> Array:
@@ -235,16 +263,24 @@ class _EpisodeReader:
         pose[:, 3:7] /= norms[:, None]
         return pose
 
-    def _force(self, e: int, rows: Frames, frames: Frames) -> Array:
-        if not self.has_force:
+    def _force(self, e: int, rows: Frames, frames: Frames, key: str = "") -> Array:
+        if not (key or self.has_force):
             return np.zeros((len(rows), 3))
-        key = self.c.force_key
+        key = key or self.force_key
         force = self._col(key, rows)
         if force.shape[1] < 3:
             raise ValueError(f"feature {key!r}: needs >= 3 entries (fx fy fz), has {force.shape[1]}")
         force = force[:, :3]
         _check_finite(key, e, force, frames)
         return force
+
+    def _wrench(self, e: int, rows: Frames, frames: Frames) -> Array | None:
+        return self._force(e, rows, frames, self.c.force_key) if self.reacting else None
+
+    def _contact(self, e: int, rows: Frames, frames: Frames) -> NDArray[np.bool_] | None:
+        if not self._has(layout.CONTACT):
+            return None
+        return self._checked(layout.CONTACT, e, rows, frames)[:, 0] > 0.5
 
     def _env_state(self, e: int, rows: Frames, frames: Frames) -> Array | None:
         key = self.c.env_state_key

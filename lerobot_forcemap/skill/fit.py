@@ -1,9 +1,10 @@
 """Demonstrations -> segments -> one arm map and one gripper map per segment (paper §III, §IV-C).
 
 1. Segment every chosen episode (``segments``): multimodal probabilistic segmentation of the
-   position, wrist-force, joint, gripper and finger-force streams with the window scaled to the
-   dataset fps; or the dataset's ``segment_index`` column; or one segment. Several episodes are
-   aligned segment by segment, so their segment counts must agree.
+   position, wrist-force, joint, gripper and finger-force streams, plus the contact events
+   (touch-downs, lift-offs) when the dataset has a ``contact`` column, with the windows in seconds
+   converted at the dataset fps; or the dataset's ``segment_index`` column; or one segment. Several
+   episodes are aligned segment by segment, so their segment counts must agree.
 2. Anchor: a segment whose (first) demonstration comes within ``anchor_radius`` of an object
    (``<obj>_x/_y/_z`` in the environment state, its position at the same frames) that stays within
    ``static_tolerance`` during the segment in every episode is expressed in that object's frame
@@ -17,7 +18,9 @@
    ``gripper_time_scale``, ``gripper_nodes_per_second`` nodes per second).
 
 Segment s of an episode with changepoints c is frames ``[c_s, c_{s+1}]`` (the boundary frame is
-shared with the next segment, so consecutive maps meet); the last segment ends at the last frame.
+shared with the next segment); the last segment ends at the last frame. The segments are fitted
+independently, then joined (``junctions.join_segments``): consecutive maps share a node at their
+boundary's time, and the skill starts and ends at the demonstrated first and last sample.
 """
 
 from __future__ import annotations
@@ -29,17 +32,27 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from lerobot_forcemap import layout
 from lerobot_forcemap.elmap import ElasticMapFit, fit_force_elastic_map
+from lerobot_forcemap.elmap.timing import node_orientations
 from lerobot_forcemap.segmentation import (
-    AUTHORS_RATE_HZ,
-    AUTHORS_WINDOW_S,
+    EventStream,
     SegmentationConfig,
+    SegmentationTiming,
     Stream,
+    contact_event_streams,
     segment_streams,
 )
 from lerobot_forcemap.skill.episodes import EpisodeArrays
+from lerobot_forcemap.skill.junctions import SegmentEnds, join_segments
 from lerobot_forcemap.skill.model import FittedSkill, SegmentMaps
-from lerobot_forcemap.skill.params import DEFAULT_STREAM_WEIGHTS, ArmMap, SegmentParams, SkillParams
+from lerobot_forcemap.skill.params import (
+    DEFAULT_STREAM_WEIGHTS,
+    EVENT_STREAMS,
+    ArmMap,
+    SegmentParams,
+    SkillParams,
+)
 from lerobot_forcemap.skill.placement import (
     IDENTITY_POSE,
     ObjectSlot,
@@ -48,6 +61,7 @@ from lerobot_forcemap.skill.placement import (
     object_slots,
     to_object_frame,
 )
+from lerobot_forcemap.skill.report import FitReport
 
 logger = logging.getLogger(__name__)
 
@@ -64,59 +78,16 @@ __all__ = [
 ]
 
 Array = NDArray[np.float64]
-AUTHORS_GRACE = 4
-
-
-@dataclass(frozen=True)
-class FitReport:
-    """Diagnostics of :func:`fit_skill`: changepoints per episode, per-segment fits, timing."""
-
-    episodes: tuple[int, ...]
-    changepoints: tuple[NDArray[np.int64], ...]
-    anchors: tuple[str, ...]
-    arm_fits: tuple[ElasticMapFit, ...]
-    gripper_fits: tuple[ElasticMapFit, ...]
-    seconds: float
-
-    def summary(self) -> list[dict]:
-        """One row per segment: anchor, nodes, EM iterations, stop reason, capped nodes, force points."""
-        return [
-            {
-                "segment": s,
-                "anchor": self.anchors[s],
-                "n_nodes": a.n_nodes,
-                "duration_s": a.duration,
-                "n_iter": a.n_iter,
-                "stop_reason": a.stop_reason,
-                "last_step": a.last_step,
-                "last_spring_step": a.last_spring_step,
-                "n_force_points": a.n_force_points,
-                "capped_nodes": int(len(a.capped_nodes)),
-                "gripper_n_iter": g.n_iter,
-                "gripper_force_points": g.n_force_points,
-            }
-            for s, (a, g) in enumerate(zip(self.arm_fits, self.gripper_fits, strict=True))
-        ]
 
 
 def segmentation_config(params: SkillParams, fps: float) -> SegmentationConfig:
-    """The segmentation settings with the window (and min_run, grace) scaled to ``fps``.
-
-    The authors used window = min_run = 64 and grace = 4 samples at ~166 Hz; here the window is
-    ``segmentation_window_s`` seconds (default 64/166 s), at least 5 samples (Savitzky–Golay order 4).
-    """
+    """The segmentation settings at ``fps``: ``segmentation_window_s`` and ``min_segment_s`` in
+    seconds (``segmentation.SegmentationTiming``: min_run = the window, grace 4/64 of it, at least 5
+    samples for the Savitzky–Golay order 4)."""
     seg = params.segmentation
-    window = max(5, int(round(seg.segmentation_window_s * fps)))
-    grace = int(round(AUTHORS_GRACE * window / (AUTHORS_WINDOW_S * AUTHORS_RATE_HZ)))
-    min_len = None if seg.min_segment_s is None else max(1, int(round(seg.min_segment_s * fps)))
-    return SegmentationConfig(
-        window=window,
-        min_run=window,
-        grace=grace,
-        mode=seg.segmentation_mode,
-        changepoints=seg.changepoints,
-        seed=int(seg.segmentation_seed),
-        min_segment_length=min_len,
+    timing = SegmentationTiming(window_s=seg.segmentation_window_s, min_segment_s=seg.min_segment_s)
+    return timing.config(
+        fps, mode=seg.segmentation_mode, changepoints=seg.changepoints, seed=int(seg.segmentation_seed)
     )
 
 
@@ -130,31 +101,31 @@ STREAM_FEATURE_FIELDS = {
 }
 
 
-def episode_streams(ep: EpisodeArrays, params: SkillParams) -> list[Stream]:
-    """Segmentation streams of one episode (those with a weight > 0 whose data the dataset has)."""
+def episode_streams(ep: EpisodeArrays, params: SkillParams) -> list[Stream | EventStream]:
+    """Segmentation streams of one episode (those with a weight > 0 whose data the dataset has): the
+    signal streams, and the contact events (``touch_down``, ``lift_off``) when it has a contact column."""
     sources = {
         "position": ep.pose[:, :3],
-        "wrist_force": ep.force if ep.has_force else None,
+        "wrist_force": ep.measured_force if ep.has_force else None,
         "joints": ep.joints,
         "gripper": ep.gripper,
         "finger_force": ep.finger_force,
     }
     seg = params.segmentation
-    streams = []
+    streams: list[Stream | EventStream] = []
     for name, values in sources.items():
         weight = float(seg.stream_weights[name])
-        if values is None and weight > 0 and weight != DEFAULT_STREAM_WEIGHTS[name]:
-            # a default weight of a stream the dataset lacks is skipped quietly (one config serves every
-            # task); a weight someone set is not
-            logger.warning(
-                "episode %d: stream_weights[%r]=%g is set, but the dataset has no %r feature for it; that stream "
-                "is left out of the segmentation",
-                ep.episode, name, weight, getattr(params.columns, STREAM_FEATURE_FIELDS[name]),
-            )  # fmt: skip
-        if values is None or weight <= 0:
-            continue
-        threshold = float(seg.stream_thresholds[name])
-        streams.append(Stream(name, values, ep.times, weight=weight, threshold=threshold))
+        if values is None:
+            _warn_missing(ep, name, weight, getattr(params.columns, STREAM_FEATURE_FIELDS[name]))
+        elif weight > 0:
+            threshold = float(seg.stream_thresholds[name])
+            streams.append(Stream(name, values, ep.times, weight=weight, threshold=threshold))
+    weights = {name: float(seg.stream_weights[name]) for name in EVENT_STREAMS}
+    if ep.contact is None:
+        for name in EVENT_STREAMS:
+            _warn_missing(ep, name, weights[name], layout.CONTACT)
+    else:
+        streams += contact_event_streams(ep.times, ep.contact_intervals(), weights=weights)
     if not streams:
         raise ValueError(
             f"stream_weights={seg.stream_weights}: no stream with a weight > 0 has data "
@@ -325,24 +296,34 @@ def fit_skill(
     if env_state_names and all(ep.env_state is not None for ep in episodes):
         slots = object_slots(env_state_names)
     scene = object_poses(episodes[0].env_state[0], slots) if slots else {}
-    segments, arm_fits, gripper_fits = [], [], []
+    segments: list[SegmentMaps] = []
+    arm_fits, gripper_fits, ends = [], [], []
     for s in range(len(changepoints[0]) - 1):
         frames = _frames_of_segment(episodes, changepoints, s)
         anchor = _anchor_of_segment(episodes, frames, slots, params) if slots else ""
-        maps, arm, grip = _fit_segment(episodes, frames, slots, anchor, params.segment(s), fps, s)
+        maps, arm, grip, end = _fit_segment(episodes, frames, slots, anchor, params.segment(s), fps, s)
         initial = scene[anchor] if anchor else IDENTITY_POSE.copy()
         segments.append(replace(maps, anchor_initial_pose=initial))
         arm_fits.append(arm)
         gripper_fits.append(grip)
-    report = FitReport(
-        episodes=tuple(ep.episode for ep in episodes),
-        changepoints=tuple(changepoints),
-        anchors=tuple(m.anchor for m in segments),
-        arm_fits=tuple(arm_fits),
-        gripper_fits=tuple(gripper_fits),
-        seconds=time.perf_counter() - t0,
+        ends.append(end)
+    # an end node within a frame of a boundary is the boundary (junctions module docstring)
+    skill = FittedSkill(join_segments(segments, ends[0], ends[-1], merge_s=1.0 / fps))
+    report = FitReport.build(
+        skill, episodes, changepoints, arm_fits, gripper_fits, fps, time.perf_counter() - t0
     )
-    return FittedSkill(tuple(segments)), report
+    return skill, report
+
+
+def _warn_missing(ep: EpisodeArrays, name: str, weight: float, feature: str) -> None:
+    """A stream the dataset has no data for: a default weight is skipped quietly (one config serves every
+    task), a weight someone set is not."""
+    if weight > 0 and weight != DEFAULT_STREAM_WEIGHTS[name]:
+        logger.warning(
+            "episode %d: stream_weights[%r]=%g is set, but the dataset has no %r feature for it; that stream "
+            "is left out of the segmentation",
+            ep.episode, name, weight, feature,
+        )  # fmt: skip
 
 
 def _changepoints(episodes: list[EpisodeArrays], params: SkillParams, fps: float) -> list[NDArray[np.int64]]:
@@ -430,8 +411,9 @@ def _fit_segment(
     p: SegmentParams,
     fps: float,
     s: int,
-) -> tuple[SegmentMaps, ElasticMapFit, ElasticMapFit]:
-    """The arm and gripper maps of segment ``s`` (its ``anchor_initial_pose`` is the caller's)."""
+) -> tuple[SegmentMaps, ElasticMapFit, ElasticMapFit, SegmentEnds]:
+    """The arm and gripper maps of segment ``s`` (its ``anchor_initial_pose`` is the caller's) and its
+    demonstrated ends."""
     # the frame each episode's data is stored in: the anchor's pose at the segment's first frame
     poses = [
         object_poses(ep.env_state[fr[0]], slots)[anchor] if anchor else None
@@ -457,7 +439,22 @@ def _fit_segment(
         anchor=anchor,
         anchor_pose=poses[0] if anchor else IDENTITY_POSE.copy(),
     )
-    return maps, arm, grip
+    return maps, arm, grip, _ends(data, duration)
+
+
+def _ends(data: _SegmentData, duration: float) -> SegmentEnds:
+    """The segment's first and last demonstrated sample in its frame, means over the episodes (the
+    orientations sign-aligned, as the maps' own)."""
+    fractions = [t / t[-1] if t[-1] > 0 else np.zeros_like(t) for t in data.ts]
+    return SegmentEnds(
+        positions=np.stack(
+            [np.mean([x[0] for x in data.xs], axis=0), np.mean([x[-1] for x in data.xs], axis=0)]
+        ),
+        orientations=node_orientations(np.array([0.0, duration]), fractions, data.qs, duration),
+        gripper=np.stack(
+            [np.mean([g[0] for g in data.gs], axis=0), np.mean([g[-1] for g in data.gs], axis=0)]
+        ),
+    )
 
 
 def _fit_arm(data: _SegmentData, arm: ArmMap, n_nodes: int, has_force: bool) -> ElasticMapFit:

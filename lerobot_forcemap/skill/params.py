@@ -27,7 +27,14 @@ from lerobot_forcemap._validation import (
     check_real,
     check_str,
 )
-from lerobot_forcemap.segmentation.config import AUTHORS_WINDOW_S, CHANGEPOINT_METHODS, MODES
+from lerobot_forcemap.segmentation.config import (
+    CHANGEPOINT_METHODS,
+    DEFAULT_TIMING,
+    EVENT_STREAM_WEIGHT,
+    EVENT_STREAMS,
+    MODES,
+    SIGNAL_STREAM_THRESHOLDS,
+)
 
 __all__ = [
     "Columns",
@@ -41,23 +48,25 @@ __all__ = [
     "STREAMS",
     "DEFAULT_STREAM_WEIGHTS",
     "DEFAULT_STREAM_THRESHOLDS",
+    "SIGNAL_STREAMS",
+    "EVENT_STREAMS",
     "OVERRIDABLE",
     "RULES",
     "check_segment_overrides",
 ]
 
 SEGMENT_SOURCES = ("auto", "dataset", "none")
-#: segmentation streams (names as in ``lerobot_forcemap.data.segment``) and their default weights
-STREAMS = ("position", "wrist_force", "joints", "gripper", "finger_force")
-DEFAULT_STREAM_WEIGHTS = dict.fromkeys(STREAMS, 1.0)
-#: the authors' UR5e thresholds; finger force takes the wrist force's
-DEFAULT_STREAM_THRESHOLDS = {
-    "position": 0.25,
-    "wrist_force": 0.15,
-    "joints": 0.20,
-    "gripper": 0.10,
-    "finger_force": 0.15,
+#: segmentation streams from a signal's jerk (names as in ``lerobot_forcemap.data.segment``)
+SIGNAL_STREAMS = ("position", "wrist_force", "joints", "gripper", "finger_force")
+#: and the streams with keypoints at the dataset's contact events (its ``contact`` column)
+STREAMS = (*SIGNAL_STREAMS, *EVENT_STREAMS)
+#: weight 1 for a signal stream, ``segmentation.EVENT_STREAM_WEIGHT`` for a contact event stream
+DEFAULT_STREAM_WEIGHTS = {
+    **dict.fromkeys(SIGNAL_STREAMS, 1.0),
+    **dict.fromkeys(EVENT_STREAMS, EVENT_STREAM_WEIGHT),
 }
+#: the authors' UR5e thresholds (``segmentation.SIGNAL_STREAM_THRESHOLDS``; event streams have none)
+DEFAULT_STREAM_THRESHOLDS = {name: SIGNAL_STREAM_THRESHOLDS[name] for name in SIGNAL_STREAMS}
 
 _NON_NEGATIVE = partial(check_real, low=0.0)
 _POSITIVE = partial(check_real, low=0.0, low_open=True)
@@ -73,7 +82,11 @@ class Columns:
     """Dataset features the fit reads (LeRobot keys; layouts in ``lerobot_forcemap.layout``).
 
     pose_key: ``[x y z qw qx qy qz ...]`` per frame (default the commanded absolute target);
-    force_key: the wrist wrench, first 3 entries used ('' fits plain elastic maps, no force points);
+    force_key: the measured wrist wrench, first 3 entries used (the segmentation's wrist-force stream,
+    and the force points' force unless the dataset has a contact reaction); '' fits plain elastic maps,
+    no force points;
+    reaction_key: the contact reaction (the wrench without a guiding hand's force) the force points read
+    instead when the dataset has it ('' or absent: the wrench);
     gripper_key / gripper_index: the gripper coordinate; finger_force_key: fingertip forces;
     env_state_key: object poses (``<obj>_x <obj>_y <obj>_z [<obj>_qw .. <obj>_qz]``);
     joints_key: joint positions (segmentation stream); segment_column: per-frame segment labels.
@@ -82,6 +95,7 @@ class Columns:
 
     pose_key: str = layout.ACTION
     force_key: str = layout.OBS_FORCE
+    reaction_key: str = layout.CONTACT_REACTION
     gripper_key: str = layout.ACTION
     gripper_index: int = layout.ACTION_GRIPPER
     finger_force_key: str = layout.OBS_FINGER_FORCE
@@ -98,20 +112,22 @@ class Segmentation:
     """How demonstrations are cut into segments.
 
     segments: "auto" (segment the streams), "dataset" (labels of ``segment_column``), "none" (one);
-    stream_weights / stream_thresholds: per stream (``STREAMS``); a dict naming some streams keeps the
-    others' defaults; weight 0 drops a stream; segmentation_window_s: the window in seconds (the
-    authors' 64 samples at ~166 Hz); segmentation_mode, changepoints, segmentation_seed,
-    min_segment_s: see ``lerobot_forcemap.segmentation.SegmentationConfig``.
+    stream_weights / stream_thresholds: per stream (``STREAMS``; thresholds for ``SIGNAL_STREAMS``); a
+    dict naming some streams keeps the others' defaults; weight 0 drops a stream; the event streams
+    ``touch_down`` / ``lift_off`` run only on datasets with contact events;
+    segmentation_window_s, min_segment_s: in seconds (``segmentation.DEFAULT_TIMING``);
+    segmentation_mode, changepoints, segmentation_seed: see
+    ``lerobot_forcemap.segmentation.SegmentationConfig``.
     """
 
     segments: str = "auto"
     stream_weights: Mapping[str, float] = field(default_factory=lambda: dict(DEFAULT_STREAM_WEIGHTS))
     stream_thresholds: Mapping[str, float] = field(default_factory=lambda: dict(DEFAULT_STREAM_THRESHOLDS))
-    segmentation_window_s: float = AUTHORS_WINDOW_S
+    segmentation_window_s: float = DEFAULT_TIMING.window_s
     segmentation_mode: str = "geometric"
     changepoints: str = "peaks"
     segmentation_seed: int = 0
-    min_segment_s: float | None = None
+    min_segment_s: float | None = DEFAULT_TIMING.min_segment_s
 
     def __post_init__(self) -> None:
         check_fields(type(self).__name__, self, SEGMENTATION_RULES)
@@ -240,7 +256,16 @@ class SkillParams:
 
 COLUMN_RULES: dict[str, Rule] = {
     **dict.fromkeys(
-        ("pose_key", "force_key", "gripper_key", "finger_force_key", "env_state_key", "joints_key"), check_str
+        (
+            "pose_key",
+            "force_key",
+            "reaction_key",
+            "gripper_key",
+            "finger_force_key",
+            "env_state_key",
+            "joints_key",
+        ),
+        check_str,
     ),
     "gripper_index": check_int,
     "segment_column": check_str,
@@ -249,7 +274,7 @@ SEGMENTATION_RULES: dict[str, Rule] = {
     "segments": partial(check_choice, choices=SEGMENT_SOURCES),
     "stream_weights": partial(check_dict, keys=STREAMS, values=_NON_NEGATIVE),
     "stream_thresholds": partial(
-        check_dict, keys=STREAMS, values=partial(check_real, low=0.0, low_open=True, high=1.0)
+        check_dict, keys=SIGNAL_STREAMS, values=partial(check_real, low=0.0, low_open=True, high=1.0)
     ),
     # finite: seconds become frame counts
     "segmentation_window_s": _unit(_POSITIVE, "s"),

@@ -14,22 +14,28 @@ Placing (:func:`place_skill`), per segment s with stored nodes y_s:
 
 1. Anchored segments (stored in an object's frame) are moved rigidly with the object's (predicted)
    pose at the segment's start: ``p + R y``, orientations ``q ⊗ q_s``. The force-lifted contact
-   nodes keep their shape.
-2. Boundary points: the start of segment 0 is the robot's current pose; a boundary next to an
-   anchored segment is that segment's own (moved) endpoint; the remaining boundaries (between two
-   free segments, or the end of trailing free segments) get the displacement interpolated in time
-   between the known ones (held after the last known one). Consecutive segments anchored to the
-   same object keep their fitted relation (they move rigidly together, small fitted gaps included).
-3. Each free segment (base frame) gets the new start/end points as equality constraints
-   (``Constraints(start=..., end=...)``) and is re-solved by the elastic map against its own stored
-   nodes, first displaced by the endpoint displacements blended linearly along the segment's time
-   law. The blend is needed because the squared cluster weight of the data term
-   dominates the smoothness terms at the fitted λ, μ: a re-solve against the unmoved nodes only
-   bends the few nodes next to a moved end (a kink, not a new path). An anchored segment whose
-   endpoint has to move (it is the first segment, or its neighbour is anchored elsewhere) gets the
-   blend only, so its contact nodes stay as fitted.
-4. The orientation of segment 0 is blended from the robot's current orientation to the stored one
-   (rotation vector of the difference scaled by 1 − u along the segment).
+   nodes keep their shape. Consecutive segments anchored to the same object keep their fitted
+   relation (they move rigidly together).
+2. Free segments (base frame) keep their stored path plus a displacement field d(t) over the
+   skill's time (s since the start), so nothing is re-fitted and a placement in the demonstrated
+   scene from the demonstrated start is the fitted path itself. d is pinned at knots and linear in
+   time between them:
+   - at t = 0, the robot's position minus the stored start (zero without a robot pose);
+   - at each boundary between a free and an anchored segment, the gap the anchored segment's motion
+     opened there (the free side moves to meet it);
+   - after the last knot d is held (a free retreat after an anchored press moves with the object);
+     with no anchored segment at all, the start's displacement decays linearly to zero over
+     ``start_window`` seconds (when None: at ``START_BLEND_SPEED``, or its rotation at
+     ``START_BLEND_TURN_RATE``, whichever takes longer): a new start deforms the path near the start
+     only, since without objects the demonstrated path is where the task is.
+   An anchored first segment whose start has to move to the robot gets the start displacement
+   fading over ``start_window`` (None: over the segment), and an anchored segment followed by one
+   anchored to another object bends its end to meet it (linearly along its time law); its contact
+   nodes keep their shape otherwise. ``resolve=True`` re-solves each displaced free segment by the
+   elastic map with its new endpoints as equality constraints (smoother, but it re-fits the segment
+   without its force points: an ablation, not the default).
+3. The orientation of segment 0 is blended from the robot's current orientation to the stored one
+   (rotation vector of the difference scaled by the same fade).
 
 Provisional segments: an anchored segment whose object the robot will still move before the
 segment starts (a grasp after a push; :func:`provisional_segments`) has only a predicted pose, which
@@ -83,10 +89,18 @@ __all__ = [
     "SkillRun",
     "path_distances",
     "IDENTITY_POSE",
+    "START_BLEND_SPEED",
+    "START_BLEND_TURN_RATE",
+    "demonstrated_reproduction",
 ]
 
 Array = NDArray[np.float64]
 IDENTITY_POSE = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+#: a new start's displacement, when no anchored segment pins the path, decays at this speed (m/s) and
+#: its rotation at this rate (rad/s), whichever takes longer: the start's offset adds no more than that
+#: to the demonstrated motion
+START_BLEND_SPEED = 0.05
+START_BLEND_TURN_RATE = 0.5
 
 
 @dataclass(frozen=True)
@@ -273,23 +287,25 @@ def place_skill(
     *,
     robot_pose: Array | None,
     object_pose: Mapping[str, Array] | None = None,
-    resolve: bool = True,
+    resolve: bool = False,
     anchor_poses: Sequence[Array | None] | None = None,
     start_window: float | None = None,
     provisional: Sequence[bool] | None = None,
 ) -> Reproduction:
     """The skill placed in a scene (see the module docstring).
 
-    params: the settings the skill was fitted with (the free segments' re-solve uses each segment's
-    ``lam``, ``mu``, ``time_scale``);
+    params: the settings the skill was fitted with (``resolve`` uses each segment's ``lam``, ``mu``,
+    ``time_scale``);
     robot_pose: (7,) current end-effector pose [x y z qw qx qy qz] (None: keep the stored start);
     object_pose: {object name: (7,) pose now} for every anchor of the skill (pass
     ``skill.demo_object_poses()`` to replay the demonstration's scene);
-    resolve: re-solve free segments with the elastic map (False: the blended displacement only);
+    resolve: re-solve displaced free segments with the elastic map (default False: the displacement
+    field only);
     anchor_poses: per segment the base-frame anchor pose at its start (7,) (None for free segments),
     instead of the prediction from ``object_pose`` (:func:`predicted_anchor_poses`);
-    start_window: the first segment's start displacement (robot pose vs stored start) fades out over
-    this many seconds instead of over the whole segment (None);
+    start_window: seconds over which the start displacement (robot pose vs stored start) decays:
+    for an anchored first segment (None: over the segment), and for a skill without anchored
+    segments (None: at ``START_BLEND_SPEED`` / ``START_BLEND_TURN_RATE``);
     provisional: per segment, True for an anchored segment whose object the robot will still move
     before the segment starts (:func:`provisional_segments`): its predicted pose is a guess, so it
     does not fix its neighbours' endpoints; it is laid out like a free segment (its demonstrated
@@ -321,26 +337,88 @@ def _place(
         raise ValueError(f"provisional: {len(prov)} entries for {S} segments")
     base = _in_base_frame(segs, anchor_poses, prov)
     fixed = [bool(seg.anchor) and not prov[s] for s, seg in enumerate(base)]
-    points = _boundary_points(base, fixed, robot_pose)
+    starts = np.concatenate([[0.0], np.cumsum([seg.duration for seg in base])])
+    knot_t, knot_d = _free_knots(base, fixed, robot_pose, starts)
+    decay = start_window
+    if not any(fixed):  # no anchored segment pins the path: a new start's displacement decays
+        decay = start_window if start_window is not None else _start_blend_s(base[0], robot_pose)
+        knot_t, knot_d = np.array([0.0, max(decay, 1e-9)]), np.stack([knot_d[0], np.zeros(3)])
     placed = []
     for s, seg in enumerate(base):
-        # consecutive segments anchored to the same object keep their fitted relation (rigid together)
-        same_before = s > 0 and fixed[s] and fixed[s - 1] and base[s - 1].anchor == seg.anchor
-        same_after = s < S - 1 and fixed[s] and fixed[s + 1] and base[s + 1].anchor == seg.anchor
-        d0 = np.zeros(3) if same_before else points[s] - seg.nodes[0]
-        d1 = np.zeros(3) if same_after else points[s + 1] - seg.nodes[-1]
-        out = seg
-        if max(np.abs(d0).max(), np.abs(d1).max()) > 0.0:
-            data = _blend(seg, d0, d1, start_window if s == 0 else None)
-            if seg.anchor or not resolve:
-                out = replace(seg, nodes=data)
-            else:
-                out = _resolve(seg, data, data[0], data[-1], arms[s])
+        if fixed[s]:
+            out = _place_anchored(base, fixed, s, robot_pose, start_window)
+        else:
+            u, _ = _fade(seg, None)  # the first node stands for the segment's start, the last for its end
+            shift = _at(knot_t, knot_d, starts[s] + u * seg.duration)
+            out = replace(seg, nodes=seg.nodes + shift)
+            if resolve and np.abs(shift).max() > 0.0:
+                out = _resolve(seg, out.nodes, out.nodes[0], out.nodes[-1], arms[s])
         if s == 0 and robot_pose is not None:
             q_robot = np.asarray(robot_pose[3:7], float)
-            out = replace(out, orientations=_blend_start_orientation(out, q_robot, start_window))
+            out = replace(out, orientations=_blend_start_orientation(out, q_robot, decay))
         placed.append(out)
     return Reproduction(tuple(placed))
+
+
+def _start_blend_s(first: SegmentMaps, robot_pose: Array | None) -> float:
+    """Seconds for the robot's offset from the stored start to decay at ``START_BLEND_SPEED`` (and its
+    rotation at ``START_BLEND_TURN_RATE``)."""
+    if robot_pose is None:
+        return 0.0
+    offset = float(np.linalg.norm(np.asarray(robot_pose[:3], float) - first.nodes[0]))
+    angle = float(
+        np.linalg.norm(
+            quat_to_rotvec(
+                quat_multiply(quat_normalize(robot_pose[3:7]), quat_conjugate(first.orientations[0]))
+            )
+        )
+    )
+    return max(offset / START_BLEND_SPEED, angle / START_BLEND_TURN_RATE)
+
+
+def _free_knots(
+    base: list[SegmentMaps], fixed: list[bool], robot_pose: Array | None, starts: Array
+) -> tuple[Array, Array]:
+    """Knots (times (K,) s, displacements (K, 3) m) of the free segments' displacement field: the
+    robot's start (when segment 0 is free) and the gaps at every free-anchored boundary."""
+    times, values = [], []
+    if not fixed[0]:
+        robot = base[0].nodes[0] if robot_pose is None else np.asarray(robot_pose[:3], float)
+        times.append(0.0)
+        values.append(robot - base[0].nodes[0])
+    for s in range(1, len(base)):
+        if fixed[s] != fixed[s - 1]:  # the free side moves to meet the anchored one
+            gap = base[s].nodes[0] - base[s - 1].nodes[-1]
+            times.append(float(starts[s]))
+            values.append(gap if fixed[s] else -gap)
+    if not times:
+        return np.zeros(0), np.zeros((0, 3))
+    return np.asarray(times), np.stack(values)
+
+
+def _at(knot_t: Array, knot_d: Array, t: Array) -> Array:
+    """The displacement field (N, 3) at times ``t (N,)``: linear between knots, held outside them."""
+    if not len(knot_t):
+        return np.zeros((len(t), 3))
+    return np.stack([np.interp(t, knot_t, knot_d[:, q]) for q in range(3)], axis=1)
+
+
+def _place_anchored(
+    base: list[SegmentMaps], fixed: list[bool], s: int, robot_pose: Array | None, start_window: float | None
+) -> SegmentMaps:
+    """Anchored segment ``s`` as moved with its object; if it is the first segment its start moves to the
+    robot (fading over ``start_window``), and if the next segment is anchored to another object its end
+    bends to meet it."""
+    seg, S = base[s], len(base)
+    d0 = np.zeros(3)
+    if s == 0 and robot_pose is not None:
+        d0 = np.asarray(robot_pose[:3], float) - seg.nodes[0]
+    d1 = np.zeros(3)
+    if s < S - 1 and fixed[s + 1] and base[s + 1].anchor != seg.anchor:
+        d1 = base[s + 1].nodes[0] - seg.nodes[-1]
+    if max(np.abs(d0).max(), np.abs(d1).max()) == 0.0:
+        return seg
+    return replace(seg, nodes=_blend(seg, d0, d1, start_window if s == 0 else None))
 
 
 def _in_base_frame(
@@ -362,31 +440,12 @@ def _in_base_frame(
     return base
 
 
-def _boundary_points(base: list[SegmentMaps], fixed: list[bool], robot_pose: Array | None) -> list[Array]:
-    """Boundary points b_0..b_S: the robot's position, anchored neighbours' endpoints, and between
-    them the displacement interpolated in time (held after the last known one)."""
-    S = len(base)
-    known: list[Array | None] = [None] * (S + 1)
-    demo_point = [base[s].nodes[0] for s in range(S)] + [base[-1].nodes[-1]]
-    known[0] = np.asarray(robot_pose[:3], float) if robot_pose is not None else base[0].nodes[0].copy()
-    for s in range(1, S):
-        if fixed[s]:
-            known[s] = base[s].nodes[0]
-        elif fixed[s - 1]:
-            known[s] = base[s - 1].nodes[-1]
-    if fixed[-1]:
-        known[S] = base[-1].nodes[-1]
-    starts = np.concatenate([[0.0], np.cumsum([s.duration for s in base])])
-    have = [i for i in range(S + 1) if known[i] is not None]
-    disp = np.array([known[i] - demo_point[i] for i in have])
-    points = []
-    for i in range(S + 1):
-        if known[i] is not None:
-            points.append(known[i])
-        else:
-            d = np.array([np.interp(starts[i], starts[have], disp[:, q]) for q in range(3)])
-            points.append(demo_point[i] + d)
-    return points
+def demonstrated_reproduction(skill: FittedSkill) -> Reproduction:
+    """The skill in the scene it was demonstrated in: anchored segments at their stored anchor poses,
+    free segments as stored, the stored start (what a placement from the demonstration's own start
+    and scene gives)."""
+    poses = [np.asarray(seg.anchor_pose, float) if seg.anchor else None for seg in skill.segments]
+    return Reproduction(tuple(_in_base_frame(skill.segments, poses, [False] * skill.n_segments)))
 
 
 def reanchor_segment(

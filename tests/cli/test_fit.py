@@ -31,6 +31,10 @@ def test_cli_fit_writes_a_loadable_checkpoint(press_dataset, press_checkpoint, t
         assert torch.equal(getattr(a, name), getattr(b, name)), name
     report = json.loads((out / "fit_report.json").read_text())
     assert report["episodes"] == [0] and len(report["segments"]) == a.config.n_segments
+    fps = report["fps"]
+    assert report["changepoints_s"][0] == pytest.approx([c / fps for c in report["changepoints"][0]])
+    assert report["boundary_gaps_m"] == pytest.approx([0.0] * (a.config.n_segments - 1), abs=1e-9)
+    assert {"contact_intervals_s", "guiding_force_share", "contacts"} <= set(report)
     assert report["dataset_repo_id"] == f"local/{press_dataset.name}"  # no --repo-id: not a Hub dataset
     with pytest.raises(ValueError, match="exists and is not empty"):
         main(["fit", "--dataset", str(press_dataset), "--out", str(out)])

@@ -21,7 +21,7 @@ from lerobot_forcemap.data.segment import (
     stream_columns,
     write_segments,
 )
-from lerobot_forcemap.segmentation import SegmentationConfig
+from lerobot_forcemap.segmentation import DEFAULT_TIMING, EVENT_STREAM_WEIGHT, SegmentationConfig
 
 from .synthetic import make_streams, write_recorder_file
 
@@ -153,7 +153,8 @@ def test_bad_input(dataset):
     ):  # a bad value is the flag's fault, not episode 0's; and that flag's, not "--weights/--thresholds"
         with pytest.raises(ValueError, match=rf"^{flag}:? {message}"):
             forcemap_main(["segment", "--dataset", str(dataset), flag, value])
-    zero = [f"{n}=0" for n in ("joints", "position", "wrist_force", "gripper")]
+    # the converted recordings have a contact column: its event streams count too
+    zero = [f"{n}=0" for n in ("joints", "position", "wrist_force", "gripper", "touch_down", "lift_off")]
     with pytest.raises(ValueError, match=r"^--weights: every stream has weight 0"):
         forcemap_main(["segment", "--dataset", str(dataset), "--weights", *zero])
     with pytest.raises(ValueError, match=r"^--weights: unknown stream\(s\) \['force'\]"):
@@ -262,7 +263,10 @@ def test_no_changepoint_note_gives_the_window_in_frames_at_the_dataset_fps(datas
         == 0
     )
     out = capsys.readouterr().out
-    assert "found no changepoint" in out and f"at this dataset's {FPS} fps is --window 19 --min-run 19" in out
+    window = DEFAULT_TIMING.config(FPS).window  # the default 0.3 s: 15 frames at 50 fps
+    assert window == round(DEFAULT_TIMING.window_s * FPS)
+    assert "found no changepoint with a window of 149 frames and runs of 149 frames" in out
+    assert f"at this dataset's {FPS} fps is --window {window} --min-run {window}" in out
     assert "its cuts can differ: fit with segments='dataset' to use these labels" in out
 
 
@@ -360,11 +364,12 @@ def test_flag_mistakes_are_named_once_as_the_flags(dataset):
     """Not as the first episode's error: the stream names are checked before any episode, and an episode
     listed twice is refused rather than segmented twice."""
     before = (dataset / "meta" / "info.json").read_text()
-    for flag in ("--weights", "--thresholds"):
+    signals = "'gripper', 'joints', 'position', 'wrist_force'"
+    events = "'gripper', 'joints', 'lift_off', 'position', 'touch_down', 'wrist_force'"
+    for flag, streams in (("--weights", events), ("--thresholds", signals)):  # events have no threshold
         with pytest.raises(
             ValueError,
-            match=rf"^{flag}: unknown stream\(s\) \['bogus'\]; this dataset has "
-            r"\['gripper', 'joints', 'position', 'wrist_force'\]$",
+            match=rf"^{flag}: unknown stream\(s\) \['bogus'\]; this dataset has \[{streams}\]$",
         ):
             forcemap_main(["segment", "--dataset", str(dataset), flag, "bogus=0.5"])
     with pytest.raises(ValueError, match=r"^--episodes: episode\(s\) \[0\] given more than once$"):
@@ -379,7 +384,7 @@ def test_every_option_has_help(capsys):
     for option in ("--repo-id", "--mode", "--changepoints", "--grace", "--seed"):
         assert f"{option} " in text
     assert "random seed of --changepoints sample (default 0; peaks ignores it)" in text
-    assert "frames a run may dip below threshold without ending (default 4)" in text
+    assert "s a run may dip below threshold (default 4/64 of the window)" in text
     assert "geometric (default, weighted sum of logs)" in text
 
 
@@ -445,3 +450,37 @@ def test_a_failure_part_way_leaves_the_dataset_as_it_was(dataset, monkeypatch, w
     monkeypatch.undo()
     segment_dataset(dataset, config=CONFIG, progress=False)  # and the dataset is fine to write again
     assert set(read_segment_index(dataset)) == {0, 1}
+
+
+def test_a_contact_column_adds_the_contact_event_streams():
+    from lerobot_forcemap.data.schema import dataset_features
+
+    feats = dataset_features(layout.state_names(layout.UR5E_JOINT_NAMES), contacts=True)
+    n = 100
+    times = np.arange(n) / 50.0
+    columns = {k: np.random.default_rng(0).normal(size=(n, *ft["shape"])) for k, ft in feats.items()}
+    columns[layout.CONTACT] = ((times >= 0.5) & (times <= 1.2)).astype(np.int64)[:, None]
+    streams = {s.name: s for s in episode_streams(columns, times, feats, weights={"lift_off": 2.0})}
+    assert streams["touch_down"].weight == EVENT_STREAM_WEIGHT and streams["lift_off"].weight == 2.0
+    np.testing.assert_allclose(streams["touch_down"].events, [0.5])
+    np.testing.assert_allclose(streams["lift_off"].events, [1.2])
+    with pytest.raises(ValueError, match=r"threshold for unknown stream\(s\) \['touch_down'\]"):
+        episode_streams(columns, times, feats, thresholds={"touch_down": 0.2})
+
+
+def test_the_cli_settings_are_in_seconds_at_the_dataset_fps(dataset, capsys):
+    from lerobot_forcemap.cli import build_parser
+    from lerobot_forcemap.cli.segment import _config
+
+    def config(*flags):
+        argv = ["segment", "--dataset", str(dataset), *flags]
+        return _config(build_parser(argv).parse_args(argv), FPS)
+
+    default = config()
+    assert (default.window, default.min_run, default.grace, default.min_segment_frames) == (15, 15, 1, 7)
+    seconds = config("--window-s", "0.4", "--min-segment-s", "0.1")
+    assert (seconds.window, seconds.min_run, seconds.min_segment_length) == (20, 20, 5)
+    frames = config("--window", "10", "--grace", "2")  # frames replace the seconds; runs follow the window
+    assert (frames.window, frames.min_run, frames.grace, frames.min_segment_frames) == (10, 10, 2, 5)
+    with pytest.raises(ValueError, match="--thresholds: unknown stream"):
+        forcemap_main(["segment", "--dataset", str(dataset), "--dry-run", "--thresholds", "lift_off=0.2"])

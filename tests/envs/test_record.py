@@ -44,6 +44,19 @@ def test_recorded_dataset_loads_with_force_features(press_dataset):
         assert 0.8 * rec["max_contact_force"] <= peak <= rec["max_contact_force"] + 1e-3
 
 
+def test_recorded_dataset_has_the_contact_features_of_the_sim(press_dataset):
+    from lerobot_forcemap.data.reader import read_episodes, read_meta
+
+    root, _ = press_dataset
+    keys = [layout.CONTACT_FORCE, layout.CONTACT_REACTION, layout.CONTACT]
+    c = read_episodes(read_meta(root), [0, 1], keys).columns
+    # no hand guides a simulated tool: the contact reaction is the env's contact force
+    np.testing.assert_array_equal(c[layout.CONTACT_REACTION], c[layout.CONTACT_FORCE])
+    pressing = np.linalg.norm(c[layout.CONTACT_FORCE], axis=1) > 2.0
+    contact = c[layout.CONTACT].reshape(-1) == 1
+    assert contact.any() and contact[pressing].all()
+
+
 def test_episode_metadata_and_card(press_dataset):
     root, result = press_dataset
     meta = json.loads((root / "meta" / EPISODES_FILE).read_text())

@@ -20,6 +20,7 @@ from experiments.paper.rollouts import fit_key
 from lerobot_forcemap import layout
 from lerobot_forcemap.executor import make_executor
 from lerobot_forcemap.geometry import quat_multiply, quat_rotate
+from lerobot_forcemap.segmentation import DEFAULT_TIMING
 from tests.conftest import REPO_ROOT
 
 
@@ -132,7 +133,13 @@ def test_jobs_run_cache_and_share_one_fit(tmp_path):
         assert out[0]["records"][0]["trace"]["rows"] and "trace" not in out[1]["records"][0]
         assert out[1]["fit"]["checkpoint"] == out[2]["fit"]["checkpoint"]  # one fit for both
         fit = out[1]["fit"]  # what segmentation_score reads: the demo's changepoints and the window
-        assert fit["demo"] == 0 and fit["changepoints"][0] == 0 and fit["segmentation_window_frames"] == 8
+        # the policy's default window at the press dataset's 20 fps (0.3 s: 6 frames)
+        window = DEFAULT_TIMING.config(20.0).window
+        assert (
+            fit["demo"] == 0
+            and fit["changepoints"][0] == 0
+            and fit["segmentation_window_frames"] == window == 6
+        )
         again = run_jobs([ours], tmp_path, ex, desc="test", stats=stats)[0]
         assert (stats.n_jobs, stats.n_cached) == (4, 1)
         assert again["cached"] and again["records"] == out[1]["records"]

@@ -18,6 +18,10 @@ def ckpt(press_checkpoint, tmp_path):
     return out
 
 
+def _config(path):
+    return json.loads((path / "config.json").read_text())
+
+
 def _edit_config(path, **changes):
     data = json.loads((path / "config.json").read_text())
     data.update(changes)
@@ -167,13 +171,8 @@ def test_values_beyond_a_robots_reach_are_refused_by_file(ckpt):
             r"config\.json: cannot read the policy config: .*stiffness",
         ),
         (
-            lambda p: _edit_config(p, segment_anchors=["", "knob"]),
+            lambda p: _edit_config(p, segment_anchors=[*_config(p)["segment_anchors"][:-1], "knob"]),
             r"config\.json: cannot read the policy config: .*segment_anchors.*\['knob'\]",
-        ),
-        (
-            lambda p: _edit_config(p, segment_overrides={"7": {"stiffness": 4000.0}}),
-            r"config\.json: cannot read the policy config: .*segment_overrides: must name segments of the fit "
-            r"\(0\.\.1\), got \[7\]",
         ),
         (
             lambda p: _drop_config_keys(p, "lam"),
@@ -199,6 +198,19 @@ def test_bad_config_json(ckpt, edit, message):
     from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
 
     edit(ckpt)
+    with pytest.raises(ValueError, match=message):
+        ForceMapPolicy.from_pretrained(ckpt)
+
+
+def test_overrides_of_segments_the_fit_does_not_have_are_named(ckpt):
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
+    last = _config(ckpt)["n_segments"] - 1
+    _edit_config(ckpt, segment_overrides={"7": {"stiffness": 4000.0}})
+    message = (
+        r"config\.json: cannot read the policy config: .*segment_overrides: must name segments of the fit "
+        rf"\(0\.\.{last}\), got \[7\]"
+    )
     with pytest.raises(ValueError, match=message):
         ForceMapPolicy.from_pretrained(ckpt)
 

@@ -100,7 +100,7 @@ def test_start_orientation_blends_from_the_robot_to_the_stored_one(skill):
 def test_free_segment_resolve_keeps_the_blended_path(skill):
     robot = _pose([0.36, 0.05, 0.18], TOOL_DOWN)
     box = _pose([0.52, 0.01, 0.03])
-    solved = _place(skill, robot, box).segments[0]
+    solved = _place(skill, robot, box, resolve=True).segments[0]
     blended = _place(skill, robot, box, resolve=False).segments[0]
     np.testing.assert_allclose(solved.nodes[[0, -1]], blended.nodes[[0, -1]], atol=1e-9)
     assert np.max(np.linalg.norm(solved.nodes - blended.nodes, axis=1)) < 0.005

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from lerobot_forcemap import layout
 from lerobot_forcemap.skill.episodes import episodes_from_columns, finger_force_scalar
 
 from .helpers import episode_columns, params, press_episode
@@ -101,3 +102,47 @@ def test_finger_force_points_towards_open():
     f3 = np.array([[3.0, 0.0, 0.0, 0.0, 4.0, 3.0]])
     assert finger_force_scalar(f3, ["f0x", "f0y", "f0z", "f1x", "f1y", "f1z"])[0] == pytest.approx(-4.0)
     assert finger_force_scalar(np.array([[2.0, -6.0]]), ["f0", "f1"])[0] == pytest.approx(-4.0)
+
+
+def _with_contact_columns(cols, feats):
+    """The columns with a contact reaction (+7 N up while the wrench pushes) and a contact flag."""
+    pressing = cols["observation.force"][:, 2] > 0
+    reaction = np.zeros((len(pressing), 3), dtype=np.float32)
+    reaction[pressing, 2] = 7.0
+    cols = {**cols, layout.CONTACT_REACTION: reaction, layout.CONTACT: pressing.astype(np.int64)[:, None]}
+    feats = {
+        **feats,
+        layout.CONTACT_REACTION: {
+            "dtype": "float32",
+            "shape": (3,),
+            "names": list(layout.CONTACT_REACTION_NAMES),
+        },
+        layout.CONTACT: {"dtype": "int64", "shape": (1,), "names": None},
+    }
+    return cols, feats
+
+
+def test_the_force_points_read_the_contact_reaction_when_the_dataset_has_one(columns):
+    cols, feats = _with_contact_columns(*columns)
+    (ep,) = episodes_from_columns(cols, feats, params(), [0])
+    rows = cols["episode_index"] == 0
+    np.testing.assert_array_equal(ep.force, cols[layout.CONTACT_REACTION][rows])
+    # the measured wrench stays for the segmentation's wrist-force stream
+    np.testing.assert_allclose(ep.measured_force, cols["observation.force"][rows, :3])
+    np.testing.assert_array_equal(ep.contact, cols[layout.CONTACT][rows, 0] == 1)
+    pressing = np.flatnonzero(ep.contact)
+    np.testing.assert_allclose(ep.contact_intervals(), [ep.times[pressing[[0, -1]]]])
+    # reaction_key='' reads the wrench, without a second copy beside it
+    (wrench,) = episodes_from_columns(cols, feats, params(reaction_key=""), [0])
+    np.testing.assert_allclose(wrench.force, cols["observation.force"][rows, :3])
+    assert wrench.wrench is None and wrench.measured_force is wrench.force
+    # and a reaction_key set by hand that the dataset lacks is refused, not silently replaced
+    with pytest.raises(ValueError, match=r"^reaction_key='reaction': the dataset has no such feature"):
+        episodes_from_columns(cols, feats, params(reaction_key="reaction"), [0])
+
+
+def test_without_a_contact_reaction_the_force_points_read_the_wrench(columns):
+    cols, feats = columns
+    (ep,) = episodes_from_columns(cols, feats, params(), [0])
+    np.testing.assert_allclose(ep.force, cols["observation.force"][cols["episode_index"] == 0, :3])
+    assert ep.wrench is None and ep.contact is None and ep.contact_intervals().shape == (0, 2)

@@ -7,6 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from lerobot_forcemap.segmentation import AUTHORS_WINDOW_S
 from lerobot_forcemap.skill.fit import episode_streams, fit_skill, segment_episode, segmentation_config
 from lerobot_forcemap.skill.placement import place_skill
 
@@ -29,8 +30,9 @@ def test_contact_nodes_lift_by_force_over_stiffness(k):
     lift = skill.segments[hold].nodes[:, 2].min() - ref.segments[hold].nodes[:, 2].min()
     assert lift == pytest.approx(K_DEMO * DEPTH / k, rel=0.02)
     assert report.summary()[hold]["capped_nodes"] == 0
-    # the approach never touched: bit-identical with and without force points
-    np.testing.assert_array_equal(skill.segments[0].nodes, ref.segments[0].nodes)
+    # the approach never touched: bit-identical with and without force points, but for its last node,
+    # the junction it shares with the descend (which touches)
+    np.testing.assert_array_equal(skill.segments[0].nodes[:-1], ref.segments[0].nodes[:-1])
 
 
 def test_segments_near_the_object_are_stored_in_its_frame():
@@ -52,8 +54,9 @@ def test_several_demonstrations_are_mapped_together_in_the_object_frame():
     skill, report, _ = _fit([a, b], stiffness=1e12)
     assert report.episodes == (0, 1) and len(report.changepoints) == 2
     # object-relative holds at -15 and -25 mm, at different base positions: one map in the box frame,
-    # on its axis and halfway between the two depths (each demonstration alone gives its own depth)
-    hold = skill.segments[2].nodes
+    # on its axis and halfway between the two depths (each demonstration alone gives its own depth); the
+    # first and last nodes are the junctions it shares with its neighbours
+    hold = skill.segments[2].nodes[1:-1]
     np.testing.assert_allclose(hold[:, :2], 0.0, atol=1e-9)
     assert hold[:, 2].min() == pytest.approx(-0.020, abs=1e-4)
     for ep, depth in ((a, 0.015), (b, 0.025)):
@@ -93,7 +96,8 @@ def test_auto_segment_counts_must_agree():
 def test_per_segment_override_changes_that_segment_only():
     base, _, _ = _fit([press_episode(0)], stiffness=3000.0)
     over, _, _ = _fit([press_episode(0)], stiffness=3000.0, segment_overrides={2: {"stiffness": 6000.0}})
-    np.testing.assert_array_equal(base.segments[1].nodes, over.segments[1].nodes)
+    # segment 1 ends at the junction it shares with segment 2, so that node follows segment 2's fit
+    np.testing.assert_array_equal(base.segments[1].nodes[:-1], over.segments[1].nodes[:-1])
     lift_base = base.segments[2].nodes[:, 2].min() + DEPTH
     lift_over = over.segments[2].nodes[:, 2].min() + DEPTH
     assert lift_over == pytest.approx(lift_base / 2, rel=0.02)
@@ -144,11 +148,14 @@ def test_a_label_on_the_last_frame_only_ends_the_previous_segment(caplog):
 
 
 def test_segmentation_window_scales_with_fps():
-    cfg = params()
+    cfg = params(segmentation_window_s=AUTHORS_WINDOW_S)
     assert segmentation_config(cfg, 166.0).window == 64  # the authors' setting at their rate
     assert segmentation_config(cfg, 166.0).grace == 4
     assert segmentation_config(cfg, 20.0).window == 8
     assert segmentation_config(cfg, 5.0).window == 5  # Savitzky-Golay order 4 needs >= 5
+    default = params()  # 0.3 s: 15 frames at 50 fps, min_run the window, min segment half of it
+    assert (segmentation_config(default, 50.0).window, segmentation_config(default, 50.0).min_run) == (15, 15)
+    assert segmentation_config(default, 50.0).min_segment_frames == 7
     cp = segment_episode(press_episode(0), params(segments="auto"), 20.0)
     assert cp[0] == 0 and cp[-1] == press_episode(0).n_frames and len(cp) >= 2
 
@@ -200,3 +207,25 @@ def test_a_fit_stopped_at_max_iter_is_reported(caplog):
     with caplog.at_level("WARNING"):
         _fit([press_episode(0, depth=DEPTH, K=K_DEMO)])
     assert "without converging" not in caplog.text
+
+
+def test_contact_events_become_changepoints():
+    """A dataset with a contact column adds the touch_down / lift_off event streams: both edges of the
+    contact become changepoints, whatever the signal streams see."""
+    ep = press_episode(0, depth=DEPTH, K=K_DEMO)
+    pressing = ep.force[:, 2] > 0
+    touching = dataclasses.replace(ep, contact=pressing)
+    assert [s.name for s in episode_streams(touching, params())][-2:] == ["touch_down", "lift_off"]
+    cp = segment_episode(touching, params(), 20.0)
+    first, last = np.flatnonzero(pressing)[[0, -1]]
+    for frame in (first, last):
+        assert np.min(np.abs(cp - frame)) <= 1
+    off = params(stream_weights={"touch_down": 0.0, "lift_off": 0.0})
+    assert not {"touch_down", "lift_off"} & {s.name for s in episode_streams(touching, off)}
+
+
+def test_a_set_event_weight_without_a_contact_column_is_reported(caplog):
+    with caplog.at_level("WARNING"):
+        streams = episode_streams(press_episode(0), params(stream_weights={"lift_off": 2.0}))
+    assert "lift_off" not in [s.name for s in streams]
+    assert "stream_weights['lift_off']=2 is set, but the dataset has no 'contact' feature" in caplog.text
