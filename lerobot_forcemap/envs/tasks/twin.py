@@ -106,6 +106,13 @@ class TwinScene:
         return cls(**d)
 
 
+def _geom_size(tw: TwinScene) -> np.ndarray:
+    """MuJoCo size of the surface geom: (radius, half height, 0) for the cap, half extents for the board."""
+    if tw.kind == "press":
+        return np.array([tw.half_size[0], SURFACE_THICKNESS / 2, 0.0])
+    return np.array([tw.half_size[0], tw.half_size[1], SURFACE_THICKNESS / 2])
+
+
 class TwinTask(ForceTask):
     spec: ClassVar[TaskSpec] = SPEC
     force_limit: ClassVar[float] = FORCE_LIMIT
@@ -133,25 +140,29 @@ class TwinTask(ForceTask):
         return ContactMonitor(environment=("table", "twin_mount", "twin_surface"))
 
     def add_objects(self, spec: mujoco.MjSpec) -> None:
-        mount = spec.worldbody.add_body(name="twin_mount")
+        tw, press = self.twin, self.twin.kind == "press"
+        base_pos = np.asarray(self.scene_config().robot_base_pos)  # the base frame's rotation is identity
+        mount = spec.worldbody.add_body(
+            name="twin_mount", pos=(base_pos + tw.surface_pos).tolist(), quat=list(tw.surface_quat)
+        )
         body = mount.add_body(name="twin_surface")
         body.add_joint(
             name="twin_slide",
             type=mujoco.mjtJoint.mjJNT_SLIDE,
             axis=[0, 0, 1],
-            range=[-1.0, 0.0],
-            stiffness=1000.0,
+            range=[-tw.stop_depth, 0.0],
+            stiffness=tw.stiffness,
+            springref=tw.preload / tw.stiffness,
             damping=5.0,
             solref_limit=[0.004, 1.0],
         )
-        geom_type = mujoco.mjtGeom.mjGEOM_CYLINDER if self.twin.kind == "press" else mujoco.mjtGeom.mjGEOM_BOX
         body.add_geom(
             name="twin_surface",
-            type=geom_type,
-            size=[0.02, 0.02, SURFACE_THICKNESS / 2],
+            type=mujoco.mjtGeom.mjGEOM_CYLINDER if press else mujoco.mjtGeom.mjGEOM_BOX,
+            size=_geom_size(tw).tolist(),
             pos=[0, 0, -SURFACE_THICKNESS / 2],
             mass=0.05,
-            rgba=[0.85, 0.15, 0.1, 1] if self.twin.kind == "press" else [0.95, 0.95, 0.95, 1],
+            rgba=[0.85, 0.15, 0.1, 1] if press else [0.95, 0.95, 0.95, 1],
             friction=[0.5, 0.005, 0.0001],
             contype=ENV_CONTYPE,
             conaffinity=ENV_CONAFFINITY,
@@ -174,12 +185,19 @@ class TwinTask(ForceTask):
         self._pos_col = index.extra["surface_pos"].start
 
     def apply(self, model: mujoco.MjModel) -> None:
-        """Put the twin's surface, spring and stop into ``model`` (no recompiling)."""
+        """Put the twin's surface, spring and stop into ``model`` (no recompiling; the calibration changes
+        them between replays)."""
         tw = self.twin
         model.body_pos[self._mount] = self.frame.pos_to_world(np.asarray(tw.surface_pos))
         model.body_quat[self._mount] = self.frame.quat_to_world(np.asarray(tw.surface_quat))
-        model.geom_size[self._geom] = [tw.half_size[0], tw.half_size[1], SURFACE_THICKNESS / 2]
-        half = np.array([tw.half_size[0], tw.half_size[1], SURFACE_THICKNESS / 2])
+        model.geom_size[self._geom] = _geom_size(tw)
+        half = np.array(
+            [
+                tw.half_size[0],
+                tw.half_size[0] if tw.kind == "press" else tw.half_size[1],
+                SURFACE_THICKNESS / 2,
+            ]
+        )
         model.geom_rbound[self._geom] = float(np.linalg.norm(half))
         model.geom_aabb[self._geom] = [0.0, 0.0, 0.0, *half]
         model.jnt_stiffness[self._joint] = tw.stiffness

@@ -12,7 +12,7 @@ from __future__ import annotations
 from gymnasium.wrappers import TimeLimit
 
 from ..tasks.twin import TwinEnv, TwinScene
-from .builder import TwinBuild, build_twin, fit_tool_offset, replay, replay_actions
+from .builder import TwinBuild, build_twin, fit_tool_offset, replay, replay_actions, write_twin
 from .recording import Recording, read_recording
 
 __all__ = [
@@ -26,6 +26,7 @@ __all__ = [
     "read_recording",
     "replay",
     "replay_actions",
+    "write_twin",
 ]
 
 

@@ -16,7 +16,9 @@
 
 from __future__ import annotations
 
+import json
 import math
+import shutil
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -25,18 +27,20 @@ import numpy as np
 
 from ..._validation import fail
 from ...contact import estimate_reaction
+from ...data.staging import partial_dir, replace_dir
 from ...geometry import matrix_to_quat, quat_to_matrix, slerp_sequence
 from ..robots import get_robot
 from ..rollout import run_episode
 from ..tasks.twin import TwinEnv, TwinScene
 from .recording import Recording, read_recording
 
-__all__ = ["TwinBuild", "build_twin", "fit_tool_offset", "replay", "replay_actions"]
+__all__ = ["TwinBuild", "build_twin", "fit_tool_offset", "replay", "replay_actions", "write_twin"]
 
 CONTROL_HZ = 20.0
 MARGIN = 0.15  # m, workspace beyond the recorded path
 STIFFNESS_RANGE = (50.0, 50000.0)  # N/m
 CALIBRATION_ROUNDS = 4
+PRESS_TRAVEL = 0.003  # m: a press that travelled more shows the button's axis
 
 
 @dataclass(frozen=True)
@@ -126,6 +130,16 @@ def _contact(rec: Recording, kinesthetic: bool):
     return est.surfaces[best], masks[best], normal_force[best]
 
 
+def _normal(inside: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """A press's normal: its travel direction inside the contact when it travelled more than
+    ``PRESS_TRAVEL`` (the button's axis), else the contact's ``normal`` (a tap on a stiff button)."""
+    centred = inside - inside.mean(axis=0)
+    axis = np.linalg.svd(centred, full_matrices=False)[2][0]
+    if np.ptp(centred @ axis) <= PRESS_TRAVEL:
+        return normal
+    return axis if axis @ normal >= 0 else -axis
+
+
 def _fit_spring(depth: np.ndarray, force: np.ndarray) -> tuple[float, float, float]:
     """``(stiffness N/m, preload N, stop depth m)`` of ``force = preload + k depth`` on the press-in."""
     stop = max(float(depth.max()), 1e-3)
@@ -147,6 +161,7 @@ def _place(
     task.twin = replace(scene, surface_pos=tuple(centre))
     task.apply(m)
     d.qpos[ix.arm_qpos] = joints
+    d.qpos[ix.gripper_qpos] = env.robot.gripper.closure_qpos(scene.gripper)
     d.qpos[task._slide_qpos] = 0.0
     mujoco.mj_forward(m, d)
     robot = [g for g in range(m.ngeom) if m.geom_contype[g] & 2 and m.geom_bodyid[g] != 0]
@@ -181,7 +196,11 @@ def _provisional(rec: Recording, offset: np.ndarray, quat: np.ndarray, kind: str
 def _geometry(env: TwinEnv, scene: TwinScene, rec: Recording, surface, mask: np.ndarray, force: np.ndarray):
     """The surface's placement, size, spring and workspace from the contact (see the module docstring)."""
     tcp = _tcp_positions(env, rec.joints)
-    n = np.asarray(surface.normal, float)
+    n = (
+        _normal(rec.pose[mask, :3], np.asarray(surface.normal, float))
+        if scene.kind == "press"
+        else surface.normal
+    )
     s = rec.pose[:, :3] @ n
     td = int(np.argmax(mask))
     depth = s[td] - s
@@ -270,7 +289,7 @@ def build_twin(dataset: str | Path, episode: int = 0, *, kinesthetic: bool = Tru
         "tcp_residual_rms_mm": float(np.sqrt(np.mean(residual**2)) * 1e3),
         "tcp_residual_max_mm": float(residual.max() * 1e3),
         "contact_interval_s": [float(x) for x in surface.interval],
-        "contact_normal": [float(x) for x in surface.normal],
+        "contact_normal": [float(x) for x in quat_to_matrix(np.asarray(scene.surface_quat))[:, 2]],
         "surface_pos": list(scene.surface_pos),
         "stiffness_n_per_m": scene.stiffness,
         "preload_n": scene.preload,
@@ -280,3 +299,27 @@ def build_twin(dataset: str | Path, episode: int = 0, *, kinesthetic: bool = Tru
         "replay_coverage": float(info["coverage"]),
     }
     return TwinBuild(scene, report)
+
+
+def write_twin(build: TwinBuild, out: str | Path) -> Path:
+    """Write ``scene.xml`` (the MJCF of the twin scene), ``twin.json`` (the :class:`TwinScene`, what
+    ``make_twin`` and the ``forcemap_twin`` env type read) and ``calibration.json`` (the report) to the
+    folder ``out`` (absent or empty), all or nothing."""
+    out = Path(out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        fail("out", "be a new or empty folder", str(out))
+    work = partial_dir(out)
+    try:
+        work.mkdir()
+        env = TwinEnv(twin=build.scene, render_mode=None)
+        (work / "scene.xml").write_text(env.mj_spec.to_xml())
+        env.close()
+        (work / "twin.json").write_text(json.dumps(build.scene.to_dict(), indent=1) + "\n")
+        (work / "calibration.json").write_text(json.dumps(build.report, indent=1) + "\n")
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+    if out.exists():
+        out.rmdir()
+    replace_dir(out, work)
+    return out
