@@ -26,7 +26,7 @@ import mujoco
 import numpy as np
 
 from ...geometry import quat_conjugate, quat_multiply, quat_rotate
-from ..control import SpeedLimit, Workspace
+from ..control import SpeedLimit, Workspace, set_impedance_damping
 from ..robots import ENV_CONAFFINITY, ENV_CONTYPE
 from ..scene import ContactMonitor, SceneConfig
 from .base import ForceTask, StartState, StepBlock, TaskSpec, TaskStatus
@@ -60,7 +60,9 @@ class TwinScene:
     base frame m: the rest surface's centre; ``surface_quat (4,)``: its frame (local z = the outward
     normal); ``half_size (2,)`` m: cap radius (press, second entry unused) or board half extents;
     ``stiffness`` N/m; ``preload`` N; ``stop_depth`` m; ``success_depth`` m (press); ``path (P, 3)``
-    base frame (wipe); ``coverage_goal``; ``workspace_low/high (3,)`` base frame m; ``max_steps``.
+    base frame (wipe); ``coverage_goal``; ``workspace_low/high (3,)`` base frame m; ``max_steps``;
+    ``damping_qpos (6,)``: the joints the impedance damping is computed at (the contact's; empty: the
+    start's; a recording may start near a singularity, whose inertia would overdamp the whole episode).
     """
 
     kind: str
@@ -79,7 +81,9 @@ class TwinScene:
     max_steps: int
     path: tuple[tuple[float, float, float], ...] = ()
     coverage_goal: float = 0.9
+    damping_qpos: tuple[float, ...] = ()
     name: str = ""
+    task: str = SPEC.description
     extra: dict = field(default_factory=dict, compare=False)
 
     def to_dict(self) -> dict:
@@ -296,6 +300,27 @@ class TwinEnv(ForceTaskEnv):
             quat_multiply(quat_conjugate(q_off), q_ft),
         )
         self._tool_ref_quat = np.asarray(self.twin.extra.get("ref_quat", [1.0, 0, 0, 0]), float)
+
+    def _place_robot(self, start: StartState) -> tuple[np.ndarray, np.ndarray]:
+        pose = super()._place_robot(start)
+        if self.twin.damping_qpos:
+            d, ix = self._scratch, self.index
+            d.qpos[:] = self.data.qpos
+            d.qpos[ix.arm_qpos] = self.twin.damping_qpos
+            mujoco.mj_forward(self.model, d)
+            self.damping = set_impedance_damping(
+                self.model, d, ix.impedance_actuators, ix.tcp_site, ix.arm_dof, self.gains
+            )
+        return pose
+
+    @property
+    def task_description(self) -> str:
+        """The recording's task string (a policy fitted on it checks it)."""
+        return self.twin.task
+
+    @property
+    def task(self) -> str:
+        return self.twin.task
 
     def tool_to_tcp(self, pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """A recorded-tool-frame pose (base frame) as the simulated TCP's pose."""

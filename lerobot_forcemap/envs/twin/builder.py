@@ -8,7 +8,8 @@
    path);
 3. spring: reaction along the normal against depth below the touch-down level, ``F = preload +
    k depth``, least squares over the press-in (depths below 75 % of the deepest: the stop is at the
-   deepest); the surface is put where the simulated tool touches it at touch-down;
+   deepest); the surface is put where the simulated tool touches it at touch-down, raised when a
+   replay without it does not reach the depth that presses it with the recorded peak (``_replay_lift``);
 4. stiffness: replays of the recorded actions in the twin scale ``k`` until the replay's peak reaction
    along the normal matches the recording's (not when the replay reaches the stop: then the stop, not
    ``k``, sets the peak); the last replay gives the correlation and peak error.
@@ -40,6 +41,7 @@ CONTROL_HZ = 20.0
 MARGIN = 0.15  # m, workspace beyond the recorded path
 STIFFNESS_RANGE = (50.0, 50000.0)  # N/m
 CALIBRATION_ROUNDS = 4
+MIN_SUCCESS_DEPTH = 0.0005  # m: a press must move the button at least this much
 PRESS_TRAVEL = 0.003  # m: a press that travelled more shows the button's axis
 
 
@@ -189,6 +191,7 @@ def _provisional(rec: Recording, offset: np.ndarray, quat: np.ndarray, kind: str
         workspace_high=(1.0, 1.0, 1.0),
         max_steps=int(math.ceil(rec.times[-1] * CONTROL_HZ)) + 20,
         name=rec.name,
+        task=rec.task or "",
         extra={"ref_quat": [float(x) for x in ref]},
     )
 
@@ -226,7 +229,27 @@ def _geometry(env: TwinEnv, scene: TwinScene, rec: Recording, surface, mask: np.
         workspace_low=tuple(lo), workspace_high=tuple(hi),
     )  # fmt: skip
     pos = _place(env, scene, rec.joints[td], centre, n)
-    return replace(scene, surface_pos=tuple(float(x) for x in pos)), depth
+    lift = _replay_lift(env, scene, rec, n, s[td], float(force[mask].max()))
+    return replace(scene, surface_pos=tuple(float(x) for x in pos + lift * n)), depth, lift
+
+
+def _replay_lift(
+    env: TwinEnv, scene: TwinScene, rec: Recording, n: np.ndarray, touch: float, peak: float
+) -> float:
+    """How far (m, along ``n``) to raise the surface above the recorded touch-down so that the replay
+    presses it with the recorded peak: the impedance-controlled arm lags its targets, and a hand that
+    pushed the tool (a kinesthetic recording) is, to the controller, a target below the surface by
+    ``peak / K``. Zero when the replay already goes that deep (the recorded actions are targets)."""
+    far = replace(scene, surface_pos=tuple(np.asarray(scene.surface_pos) - 0.5 * n))
+    env.task_impl.twin = far
+    actions = replay_actions(rec)
+    it = iter(actions)
+    episode = run_episode(
+        env, lambda obs: next(it), seed=0, trace=lambda st: st.obs["ee_pose"][:3], max_steps=len(actions)
+    )
+    deepest = float((np.asarray(episode.trace, float) @ n).min())
+    stiffness = float(np.mean(env.gains.stiffness_pos))
+    return max(0.0, deepest + peak / stiffness - touch)
 
 
 def _score(sim: np.ndarray, recorded: np.ndarray) -> dict:
@@ -271,9 +294,11 @@ def build_twin(dataset: str | Path, episode: int = 0, *, kinesthetic: bool = Tru
     surface, mask, force = _contact(rec, kinesthetic)
     offset, quat, residual = fit_tool_offset(rec.joints, rec.pose)
     kind = "press" if surface.kind == "approach" else "wipe"
-    env = TwinEnv(twin=_provisional(rec, offset, quat, kind), render_mode=None)
+    touch = int(np.argmax(mask))
+    start = replace(_provisional(rec, offset, quat, kind), damping_qpos=tuple(rec.joints[touch]))
+    env = TwinEnv(twin=start, render_mode=None)
     try:
-        scene, depth = _geometry(env, env.twin, rec, surface, mask, force)
+        scene, depth, lift = _geometry(env, env.twin, rec, surface, mask, force)
         scene, score, info = _calibrate(env, scene, rec, force, np.asarray(surface.normal, float))
     finally:
         env.close()
@@ -291,6 +316,7 @@ def build_twin(dataset: str | Path, episode: int = 0, *, kinesthetic: bool = Tru
         "contact_interval_s": [float(x) for x in surface.interval],
         "contact_normal": [float(x) for x in quat_to_matrix(np.asarray(scene.surface_quat))[:, 2]],
         "surface_pos": list(scene.surface_pos),
+        "surface_lift_mm": lift * 1e3,
         "stiffness_n_per_m": scene.stiffness,
         "preload_n": scene.preload,
         "demonstrated_depth_mm": float(depth[mask].max() * 1e3),

@@ -37,6 +37,7 @@ class Recording:
     action: np.ndarray
     name: str
     episode: int
+    task: str = ""
 
     @property
     def fps(self) -> float:
@@ -60,7 +61,8 @@ def read_recording(dataset: str | Path, episode: int = 0) -> Recording:
     missing = [c for c in _COLUMNS if c not in meta.features]
     if missing:
         fail(f"episode {name}", f"have the columns {list(_COLUMNS)}; missing {missing}")
-    c = read_episodes(meta, [episode], _COLUMNS, name="episode").columns
+    read = read_episodes(meta, [episode], _COLUMNS, name="episode")
+    c = read.columns
     if len(c["timestamp"]) < 10:
         fail(f"episode {name}", "have at least 10 frames", len(c["timestamp"]))
     state = c["observation.state"].astype(float)
@@ -74,4 +76,5 @@ def read_recording(dataset: str | Path, episode: int = 0) -> Recording:
         action=c["action"].astype(float),
         name=name,
         episode=episode,
+        task=read.tasks[0] if read.tasks else "",
     )
