@@ -99,3 +99,21 @@ def test_real_press_and_wipe_twins(tmp_path):
         assert np.linalg.norm(r["tool_offset_mm"]) < 2.0
     with pytest.raises(ValueError, match=r"episode circle\[0\]: must have a detectable contact"):
         build_twin(tmp_path / "circle", 0)
+
+
+def test_forcemap_twin_env_type(press_twin, tmp_path):
+    from lerobot.envs.factory import make_env, make_env_config
+
+    import lerobot_env_forcemap  # noqa: F401  (registers the env types)
+    from lerobot_forcemap.envs.twin import write_twin
+
+    write_twin(press_twin, tmp_path / "twin")
+    cfg = make_env_config("forcemap_twin", twin=str(tmp_path / "twin"))
+    assert cfg.episode_length == press_twin.scene.max_steps
+    env = make_env(cfg, n_envs=1)["forcemap_twin"][0]
+    obs, _ = env.reset(seed=0)
+    assert obs["environment_state"].shape == (1, 9) and obs["ee_pose"].shape == (1, 7)
+    assert env.call("task_description")[0] == press_twin.scene.task
+    env.close()
+    with pytest.raises(ValueError, match="twin: must be an existing path"):
+        make_env_config("forcemap_twin", twin=str(tmp_path / "absent"))
