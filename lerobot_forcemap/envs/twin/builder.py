@@ -42,6 +42,7 @@ MARGIN = 0.15  # m, workspace beyond the recorded path
 STIFFNESS_RANGE = (50.0, 50000.0)  # N/m
 CALIBRATION_ROUNDS = 4
 MIN_SUCCESS_DEPTH = 0.0005  # m: a press must move the button at least this much
+MIN_COVERAGE = 0.1  # a wipe must cover at least this share of the demonstrated path
 PRESS_TRAVEL = 0.003  # m: a press that travelled more shows the button's axis
 
 
@@ -304,7 +305,9 @@ def build_twin(dataset: str | Path, episode: int = 0, *, kinesthetic: bool = Tru
         env.close()
     reached = float(info["max_surface_travel"]) if kind == "press" else float(info["coverage"])
     scene = replace(
-        scene, success_depth=0.9 * reached, coverage_goal=0.9 * reached if kind == "wipe" else 0.9
+        scene,
+        success_depth=max(0.9 * reached, MIN_SUCCESS_DEPTH),
+        coverage_goal=max(0.9 * reached, MIN_COVERAGE) if kind == "wipe" else 0.9,
     )
     report = {
         "episode": rec.name,
