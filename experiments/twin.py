@@ -45,17 +45,20 @@ def _convert(h5: Path, out: Path) -> Path:
 
 def _run(env, actor, seed: int = 0) -> dict:
     """One episode of ``actor`` = (reset, act) in the twin ``env``: the outcome and contact forces."""
-    from experiments.paper.jobs import run_episode
+    from lerobot_forcemap.envs.rollout import run_episode
 
     reset, act = actor
-    rec = run_episode(env, reset, act, seed)
+    episode = run_episode(
+        env, lambda obs: np.asarray(act(obs), dtype=np.float64).reshape(-1), seed, reset=reset
+    )
+    info = episode.info
     return {
-        "success": bool(rec["success"]),
-        "max_force_n": float(rec["max_contact_force"]),
-        "mean_force_n": float(rec["mean_contact_force"]),
-        "travel_mm": 1e3 * float(rec["metrics"].get("max_surface_travel", 0.0)),
-        "coverage": float(rec["metrics"].get("coverage", 0.0)),
-        "termination": rec["termination_reason"],
+        "success": bool(info["is_success"]),
+        "max_force_n": float(info["max_contact_force"]),
+        "mean_force_n": float(info["mean_contact_force"]),
+        "travel_mm": 1e3 * float(info["max_surface_travel"]),
+        "coverage": float(info["coverage"]),
+        "termination": info["termination_reason"] or ("time_limit" if episode.truncated else ""),
     }
 
 
@@ -74,15 +77,14 @@ def _replay_actor(actions: np.ndarray):
 
 
 def _policy_actor(dataset: Path, ckpt: Path, task: str):
-    from experiments.paper.jobs import _lerobot_actor
     from lerobot_forcemap.cli.fit import fit_policy
-    from lerobot_forcemap.evaluation.evaluate import load_policy
+    from lerobot_forcemap.evaluation.evaluate import lerobot_actor, load_policy
 
     if not (ckpt / "config.json").is_file():
         shutil.rmtree(ckpt, ignore_errors=True)
         fit_policy(dataset, ckpt, episodes=[0])
     policy, pre, post = load_policy(ckpt)
-    return _lerobot_actor(policy, pre, post, task)
+    return lerobot_actor(policy, pre, post, task)
 
 
 def run_one(name: str, h5: Path, workdir: Path) -> dict:
