@@ -230,27 +230,49 @@ def _geometry(env: TwinEnv, scene: TwinScene, rec: Recording, surface, mask: np.
         workspace_low=tuple(lo), workspace_high=tuple(hi),
     )  # fmt: skip
     pos = _place(env, scene, rec.joints[td], centre, n)
-    lift = _replay_lift(env, scene, rec, n, s[td], float(force[mask].max()))
+    window = (rec.times[mask][0] - 0.5, rec.times[mask][-1] + 0.5)
+    lift, deepest_tcp = _replay_lift(env, scene, rec, n, s[td], float(force[mask].max()), window)
+    if lift > 0 and scene.kind == "press":  # where the lagging replay comes down, not the recorded point
+        off = deepest_tcp - pos
+        pos = pos + off - (off @ n) * n
     return replace(scene, surface_pos=tuple(float(x) for x in pos + lift * n)), depth, lift
 
 
 def _replay_lift(
-    env: TwinEnv, scene: TwinScene, rec: Recording, n: np.ndarray, touch: float, peak: float
-) -> float:
+    env: TwinEnv,
+    scene: TwinScene,
+    rec: Recording,
+    n: np.ndarray,
+    touch: float,
+    peak: float,
+    window: tuple[float, float],
+) -> tuple[float, np.ndarray]:
     """How far (m, along ``n``) to raise the surface above the recorded touch-down so that the replay
-    presses it with the recorded peak: the impedance-controlled arm lags its targets, and a hand that
+    presses it with the recorded peak (within ``window`` s of the contact): the impedance-controlled arm lags its targets, and a hand that
     pushed the tool (a kinesthetic recording) is, to the controller, a target below the surface by
-    ``peak / K``. Zero when the replay already goes that deep (the recorded actions are targets)."""
+    ``peak / K``. Zero when the replay already goes that deep (the recorded actions are targets).
+    Also returns the simulated TCP (base frame) at the replay's deepest point: a raised button is put
+    under it (the lagging arm cuts corners sideways too)."""
     far = replace(scene, surface_pos=tuple(np.asarray(scene.surface_pos) - 0.5 * n))
     env.task_impl.twin = far
     actions = replay_actions(rec)
     it = iter(actions)
     episode = run_episode(
-        env, lambda obs: next(it), seed=0, trace=lambda st: st.obs["ee_pose"][:3], max_steps=len(actions)
+        env,
+        lambda obs: next(it),
+        seed=0,
+        trace=lambda st: np.concatenate(
+            env.tool_to_tcp(st.obs["ee_pose"][:3], st.obs["ee_pose"][3:])[:1] + (st.obs["ee_pose"][:3],)
+        ),
+        max_steps=len(actions),
     )
-    deepest = float((np.asarray(episode.trace, float) @ n).min())
+    rows = np.asarray(episode.trace, float)
+    t = np.arange(len(rows)) / CONTROL_HZ
+    near = np.flatnonzero((t >= window[0]) & (t <= window[1]))  # the contact's replay, s
+    near = near if len(near) else np.arange(len(rows))
+    i = int(near[np.argmin(rows[near, 3:] @ n)])
     stiffness = float(np.mean(env.gains.stiffness_pos))
-    return max(0.0, deepest + peak / stiffness - touch)
+    return max(0.0, float(rows[i, 3:] @ n) + peak / stiffness - touch), rows[i, :3]
 
 
 def _score(sim: np.ndarray, recorded: np.ndarray) -> dict:
