@@ -56,7 +56,7 @@ from ..layout import (
 from .control import ClipReport, clip_target, interpolate_targets, set_impedance_damping, solve_ik
 from .physics import BlockStepper
 from .robots import RobotSpec, get_robot
-from .scene import CAMERA, BaseFrame, SceneConfig, build_scene, index_scene
+from .scene import CAMERA, BaseFrame, build_scene, index_scene
 from .sensing import ForceStats, LowPass, Payload, force_norms, reaction_wrench_base
 from .tasks.base import ForceTask, StartState, StepBlock, TaskStatus
 from .variation import SceneVariation, check_level, scale_stiffness
