@@ -38,6 +38,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "fit": ("lerobot_forcemap.cli.fit", "fit a forcemap policy from a dataset and save a checkpoint"),
     "eval": ("lerobot_forcemap.cli.eval", "evaluate a policy in a sim task, one JSON record per episode"),
     "report": ("lerobot_forcemap.cli.report", "tables and plots from eval records"),
+    "twin": ("lerobot_forcemap.cli.twin", "build the simulated twin of one converted recording"),
     "push": (
         "lerobot_forcemap.cli.push",
         "push a dataset or a fitted policy to the Hugging Face Hub",

@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 import os
 import warnings
+from dataclasses import replace
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -55,7 +56,7 @@ from ..layout import (
 from .control import ClipReport, clip_target, interpolate_targets, set_impedance_damping, solve_ik
 from .physics import BlockStepper
 from .robots import RobotSpec, get_robot
-from .scene import CAMERA, BaseFrame, SceneConfig, build_scene, index_scene
+from .scene import CAMERA, BaseFrame, build_scene, index_scene
 from .sensing import ForceStats, LowPass, Payload, force_norms, reaction_wrench_base
 from .tasks.base import ForceTask, StartState, StepBlock, TaskStatus
 from .variation import SceneVariation, check_level, scale_stiffness
@@ -145,7 +146,8 @@ class ForceTaskEnv(gym.Env):
     def _build_model(self) -> None:
         """Scene spec, compiled model, data (and a scratch copy for IK), the scene index; binds the task."""
         t = self.task_impl
-        self.scene_config = SceneConfig(
+        self.scene_config = replace(
+            t.scene_config(),
             render_width=max(self.render_size, self.image_size),
             render_height=max(self.render_size, self.image_size),
         )
@@ -259,6 +261,10 @@ class ForceTaskEnv(gym.Env):
         start: StartState = self.task_impl.reset(self.model, self.data, self.np_random)
         self._vary_scene()
         pos_w, quat_w = self._place_robot(start)
+        if start.arm_qpos is not None:
+            start = replace(
+                start, tcp_pos=self.frame.pos_to_base(pos_w), tcp_quat=self.frame.quat_to_base(quat_w)
+            )
         self._settle_and_tare()
         self._start_episode(start, pos_w, quat_w)
         return self._observation(), self._info()
@@ -274,11 +280,34 @@ class ForceTaskEnv(gym.Env):
     def _place_robot(self, start: StartState) -> tuple[np.ndarray, np.ndarray]:
         """Arm at the start pose (offline IK), fingers and gripper command, impedance target and damping;
         returns the start pose in the world."""
-        m, d, ix, t = self.model, self.data, self.index, self.task_impl
-        pos_w = self.frame.pos_to_world(np.asarray(start.tcp_pos, float))
-        quat_w = self.frame.quat_to_world(np.asarray(start.tcp_quat, float))
+        m, d, ix = self.model, self.data, self.index
+        if start.arm_qpos is None:
+            pos_w = self.frame.pos_to_world(np.asarray(start.tcp_pos, float))
+            quat_w = self.frame.quat_to_world(np.asarray(start.tcp_quat, float))
+            d.qpos[ix.arm_qpos] = self._start_ik(start, pos_w, quat_w)
+        else:
+            d.qpos[ix.arm_qpos] = start.arm_qpos
+        closure = start.gripper if start.gripper_closure is None else start.gripper_closure
+        d.qpos[ix.gripper_qpos] = self.robot.gripper.closure_qpos(closure)
+        mujoco.mj_forward(m, d)
+        if start.arm_qpos is not None:
+            pos_w = d.site_xpos[ix.tcp_site].copy()
+            quat_w = np.empty(4)
+            mujoco.mju_mat2Quat(quat_w, d.site_xmat[ix.tcp_site])
+        self._mocap_pos[ix.mocap] = pos_w
+        self._mocap_quat[ix.mocap] = quat_w
+        lo, hi = ix.gripper_ctrlrange
+        d.ctrl[ix.gripper_actuator] = lo + float(np.clip(start.gripper, 0, 1)) * (hi - lo)
+        self.damping = set_impedance_damping(
+            m, d, ix.impedance_actuators, ix.tcp_site, ix.arm_dof, self.gains
+        )
+        return pos_w, quat_w
+
+    def _start_ik(self, start: StartState, pos_w: np.ndarray, quat_w: np.ndarray) -> np.ndarray:
+        """Arm joints at the start pose (offline IK from the robot's home); ``RuntimeError`` if unreachable."""
+        ix = self.index
         ik = solve_ik(
-            m,
+            self.model,
             self._scratch,
             ix.tcp_site,
             ix.arm_qpos,
@@ -289,21 +318,10 @@ class ForceTaskEnv(gym.Env):
         )
         if not ik.converged:
             raise RuntimeError(
-                f"{t.spec.name}: start pose {start.tcp_pos} unreachable (IK error {ik.position_error:.4f} m, "
-                f"{ik.orientation_error:.4f} rad)"
+                f"{self.task_impl.spec.name}: start pose {start.tcp_pos} unreachable (IK error "
+                f"{ik.position_error:.4f} m, {ik.orientation_error:.4f} rad)"
             )
-        d.qpos[ix.arm_qpos] = ik.qpos
-        closure = start.gripper if start.gripper_closure is None else start.gripper_closure
-        d.qpos[ix.gripper_qpos] = self.robot.gripper.closure_qpos(closure)
-        mujoco.mj_forward(m, d)
-        self._mocap_pos[ix.mocap] = pos_w
-        self._mocap_quat[ix.mocap] = quat_w
-        lo, hi = ix.gripper_ctrlrange
-        d.ctrl[ix.gripper_actuator] = lo + float(np.clip(start.gripper, 0, 1)) * (hi - lo)
-        self.damping = set_impedance_damping(
-            m, d, ix.impedance_actuators, ix.tcp_site, ix.arm_dof, self.gains
-        )
-        return pos_w, quat_w
+        return ik.qpos
 
     def _settle_and_tare(self) -> None:
         """Settle steps around the task's hooks, then the tare from the last samples at rest."""

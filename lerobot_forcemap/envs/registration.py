@@ -69,3 +69,9 @@ def make(task: str, **kwargs) -> gym.Env:
 
 for _module in TASK_MODULES:
     register_task(importlib.import_module(f"{__package__}.tasks.{_module}").SPEC)
+
+#: the twin of a recording (``envs/twin``): a gym id, not a task of TASKS (it has no demonstrator; its
+#: scene is the ``twin`` kwarg, and its time limit the kwarg ``max_episode_steps``)
+TWIN_GYM_ID = f"{NAMESPACE}/Twin-v0"
+if TWIN_GYM_ID not in gym.registry:
+    gym.register(id=TWIN_GYM_ID, entry_point="lerobot_forcemap.envs.tasks.twin:TwinEnv")

@@ -19,7 +19,7 @@ import numpy as np
 from ..._validation import fail
 from ..control import SpeedLimit, Workspace
 from ..robots import ImpedanceGains, RobotSpec, ToolBuilder
-from ..scene import BaseFrame, ContactMonitor, SceneIndex
+from ..scene import BaseFrame, ContactMonitor, SceneConfig, SceneIndex
 from ..variation import VariedParts
 
 #: gym namespace of the tasks: ``lerobot_forcemap/<TaskSpec.env_id>``
@@ -82,12 +82,17 @@ class TaskSpec:
 
 @dataclass(frozen=True)
 class StartState:
-    """Where an episode starts: TCP pose (base frame), gripper command, initial finger closure."""
+    """Where an episode starts: TCP pose (base frame), gripper command, initial finger closure.
+
+    ``arm_qpos``: start at these arm joints instead (rad; no IK; the TCP pose is then their forward
+    kinematics and ``tcp_pos`` / ``tcp_quat`` are ignored).
+    """
 
     tcp_pos: np.ndarray
     tcp_quat: np.ndarray
     gripper: float
     gripper_closure: float | None = None  # initial finger position as a 0..1 closure (None: = gripper)
+    arm_qpos: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -138,6 +143,10 @@ class ForceTask(abc.ABC):
 
     def tool(self) -> ToolBuilder | None:
         return None
+
+    def scene_config(self) -> SceneConfig:
+        """The scene's layout (robot base, table, camera); render sizes are the env's."""
+        return SceneConfig()
 
     def gains(self) -> ImpedanceGains:
         return self.robot.impedance
