@@ -175,7 +175,7 @@ def test_stepping_after_the_episode_ended_warns_once():
 
 @pytest.mark.parametrize("task", sorted(TASKS))
 def test_physics_options_are_the_specs(task):
-    """SPEC §4: 2 ms timestep, implicitfast integrator, elliptic friction cones (contact forces depend on them)."""
+    """The physics settings: 2 ms timestep, implicitfast integrator, elliptic friction cones (contact forces depend on them)."""
     import mujoco
 
     env = E.make(task, render_mode=None)

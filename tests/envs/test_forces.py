@@ -97,7 +97,7 @@ def test_a_let_go_disc_is_no_force_on_the_robot():
 
 
 def test_held_disc_is_tared_after_reset():
-    """SPEC §4 "tare the F/T sensor after reset": the held disc's weight (about 0.5 N) does not read as force."""
+    """The F/T sensor is tared after reset: the held disc's weight (about 0.5 N) does not read as force."""
     env = E.make("peg_in_hole")
     obs, _ = env.reset(seed=3)
     obs, info = hold(env, obs["ee_pose"].astype(float), 1.0, 30)  # hold the start pose, disc gripped

@@ -131,7 +131,7 @@ def test_a_partial_stream_dict_keeps_the_other_streams_defaults():
 
 
 def test_default_stream_thresholds_are_the_authors():
-    """SPEC §2 the authors' UR5e thresholds: joints 0.20, Cartesian 0.25, wrist force 0.15, gripper 0.10."""
+    """The authors' UR5e thresholds: joints 0.20, Cartesian 0.25, wrist force 0.15, gripper 0.10."""
     from lerobot_forcemap.data.segment import STREAM_THRESHOLDS
     from lerobot_policy_forcemap.configuration_forcemap import ForceMapConfig
 

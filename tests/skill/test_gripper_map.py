@@ -69,7 +69,7 @@ def test_the_1d_gripper_map_ramps_a_step_over_many_periods():
 
 
 def test_finger_force_lifts_the_squeeze_by_force_over_stiffness():
-    """A hold with a steady finger force f: the reproduced closure is lower by f / k (SPEC §1: a node
+    """A hold with a steady finger force f: the reproduced closure is lower by f / k (a node
     in steady contact is lifted by F/k), and unchanged without force points."""
     T = 100
     t = np.arange(T) / FPS
