@@ -19,14 +19,13 @@ their range). Compare ratios, not times. The process is pinned to one CPU core (
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import time
 
 import mujoco
 import numpy as np
 
 import lerobot_forcemap.envs as E
+from benchmarks._common import add_cores_argument, pin_cores, print_table, write_json
 from lerobot_forcemap._validation import check_int, usage_errors
 from lerobot_forcemap.envs.demonstrators import make_demonstrator, run_demonstration
 from tests.envs.reference_step import make_reference  # the reference step lives with the tests
@@ -83,41 +82,34 @@ def bench_task(task: str, runs: int, episodes: int) -> dict:
     }
 
 
+def _cells(r: dict) -> list[str]:
+    return [
+        r["task"], str(r["steps"]), f"{r['reference_ms']:.3f}", f"{r['env_ms']:.3f}",
+        f"{r['speedup']:.2f}x ({r['speedup_min']:.2f}..{r['speedup_max']:.2f})", f"{r['speedup_wall']:.2f}x",
+    ]  # fmt: skip
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5, help="timing runs per task (>= 1)")
     parser.add_argument("--episodes", type=int, default=2, help="scripted episodes per task (>= 1)")
     parser.add_argument("--tasks", nargs="+", default=list(TASKS), choices=TASKS)
-    parser.add_argument(
-        "--cores", type=int, default=1, help="pin the process to this many CPU cores (0: no pinning)"
-    )
+    add_cores_argument(parser)
     parser.add_argument("--json", default=None, help="also write the numbers to this JSON file")
     args = parser.parse_args(argv)
-    available = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
     with usage_errors(parser):
         check_int("--runs", args.runs, low=1)
         check_int("--episodes", args.episodes, low=1)
-        check_int("--cores", args.cores, low=0, high=available)  # 0: no pinning
-    if args.cores and hasattr(os, "sched_setaffinity"):
-        os.sched_setaffinity(0, set(sorted(os.sched_getaffinity(0))[: args.cores]))
+        pinned = pin_cores(args.cores)
     rows = [bench_task(task, args.runs, args.episodes) for task in args.tasks]
     print(
         f"mujoco {mujoco.__version__}; {args.episodes} scripted episodes per task (seeds {FIRST_SEED}..), "
-        f"{args.runs} runs, cores pinned: {args.cores or 'no'}; medians of the per-step time\n"
+        f"{args.runs} runs, cores pinned: {pinned or 'no'}; medians of the per-step time\n"
     )
-    print(
-        "| task | steps per run | reference (ms/step, CPU) | env (ms/step, CPU) "
-        "| speed-up, CPU time (min..max over runs) | speed-up, wall time |"
-    )
-    print("|---|---|---|---|---|---|")
-    for r in rows:
-        print(
-            f"| {r['task']} | {r['steps']} | {r['reference_ms']:.3f} | {r['env_ms']:.3f} | "
-            f"{r['speedup']:.2f}x ({r['speedup_min']:.2f}..{r['speedup_max']:.2f}) | {r['speedup_wall']:.2f}x |"
-        )
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump({"mujoco": mujoco.__version__, "rows": rows}, f, indent=1)
+    header = ["task", "steps per run", "reference (ms/step, CPU)", "env (ms/step, CPU)"]
+    header += ["speed-up, CPU time (min..max over runs)", "speed-up, wall time"]
+    print_table(header, [_cells(r) for r in rows])
+    write_json(args.json, {"mujoco": mujoco.__version__, "rows": rows})
     return 0
 
 

@@ -17,8 +17,6 @@ Prints a markdown table (medians; timings are noisy on shared machines).
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import statistics
 import sys
 import time
@@ -28,6 +26,7 @@ import numpy as np
 from tqdm import tqdm
 
 import lerobot_forcemap.envs as E
+from benchmarks._common import add_cores_argument, pin_cores, print_table, write_json
 from lerobot_forcemap._validation import check_int, usage_errors
 from lerobot_forcemap.envs.demonstrators import make_demonstrator
 from lerobot_forcemap.envs.registration import TASKS
@@ -105,20 +104,13 @@ def bench_render(task: str, size: int, n: int = 30) -> float:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=5, help="scripted episodes per task (>= 1)")
-    parser.add_argument(
-        "--cores", type=int, default=1, help="pin the process to this many CPU cores (0: no pinning)"
-    )
+    add_cores_argument(parser)
     parser.add_argument("--no-render", action="store_true")
     parser.add_argument("--json", default=None, help="also write the numbers to this JSON file")
     args = parser.parse_args(argv)
-    available = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
     with usage_errors(parser):
         check_int("--episodes", args.episodes, low=1)
-        check_int("--cores", args.cores, low=0, high=available)  # 0: no pinning
-    pinned = 0
-    if args.cores and hasattr(os, "sched_setaffinity"):
-        os.sched_setaffinity(0, set(sorted(os.sched_getaffinity(0))[: args.cores]))
-        pinned = args.cores
+        pinned = pin_cores(args.cores)
     rows = []
     tasks = [t for t in TASKS if t in ("press", "erase", "peg_in_hole", "grasp_push", "grasp_flip")]
     for task in tqdm(tasks, desc="bench_envs", unit="task", file=sys.stderr):
@@ -143,18 +135,15 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"mujoco {mujoco.__version__}, {args.episodes} scripted episodes per task, cores pinned: {pinned or 'no'}\n"
     )
-    print(
-        "| task | build (ms) | real-time factor (env) | bare mj_step RTF (at rest) | env / bare | render 256 px (ms) | render 128 px (ms) |"
-    )
-    print("|---|---|---|---|---|---|---|")
-    for r in rows:
-        print(
-            f"| {r['task']} | {r['build_ms']:.1f} | {r['rtf']:.1f}x | {r['bare_rtf']:.1f}x | {r['env_over_bare']:.2f} | "
-            f"{r['render_ms_256']:.1f} | {r['render_ms_128']:.1f} |"
-        )
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump({"mujoco": mujoco.__version__, "rows": rows}, f, indent=1)
+    header = ["task", "build (ms)", "real-time factor (env)", "bare mj_step RTF (at rest)", "env / bare"]
+    header += ["render 256 px (ms)", "render 128 px (ms)"]
+    cells = [
+        [r["task"], f"{r['build_ms']:.1f}", f"{r['rtf']:.1f}x", f"{r['bare_rtf']:.1f}x", f"{r['env_over_bare']:.2f}",
+         f"{r['render_ms_256']:.1f}", f"{r['render_ms_128']:.1f}"]
+        for r in rows
+    ]  # fmt: skip
+    print_table(header, cells)
+    write_json(args.json, {"mujoco": mujoco.__version__, "rows": rows})
     return 0
 
 
