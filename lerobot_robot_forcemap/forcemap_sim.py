@@ -31,13 +31,14 @@ from lerobot_robot_forcemap.cartesian import (
     pack_observation,
 )
 from lerobot_robot_forcemap.config_forcemap_sim import ForceMapSimConfig
+from lerobot_robot_forcemap.simulated import SimulatedDevice
 
 __all__ = ["ForceMapSim"]
 
 logger = logging.getLogger(__name__)
 
 
-class ForceMapSim(Robot):
+class ForceMapSim(SimulatedDevice, Robot):
     """The simulated robot of ``ForceMapSimConfig.task`` (module docstring)."""
 
     config_class = ForceMapSimConfig
@@ -50,7 +51,6 @@ class ForceMapSim(Robot):
         self.env = make(config.task, render_mode=None, randomize=config.randomize)
         self.state_names: dict[str, tuple[str, ...]] = dict(self.env.unwrapped.state_names)
         self.cameras: dict[str, Any] = {}  # lerobot-record sizes its image writers by it
-        self._connected = False
         self._episode = -1
         self._obs: dict[str, Any] = {}
         self._info: dict[str, Any] = {}
@@ -66,23 +66,9 @@ class ForceMapSim(Robot):
     def action_features(self) -> dict[str, type]:
         return action_features()
 
-    @property
-    def is_connected(self) -> bool:
-        return self._connected
-
-    @property
-    def is_calibrated(self) -> bool:
-        return True
-
     def connect(self, calibrate: bool = True) -> None:
-        self._connected = True
+        super().connect(calibrate)
         self._reset_scene()
-
-    def calibrate(self) -> None:
-        """Nothing to calibrate in simulation."""
-
-    def configure(self) -> None:
-        """Nothing to configure in simulation."""
 
     def get_observation(self) -> dict[str, float]:
         self._require_connected()
@@ -106,7 +92,7 @@ class ForceMapSim(Robot):
     def disconnect(self) -> None:
         if self._connected and not self._ended and self._episode >= 0:
             self._end_episode()
-        self._connected = False
+        super().disconnect()
         self.env.close()
 
     # ---- the scene's episodes ------------------------------------------------------------------------

@@ -19,11 +19,12 @@ from lerobot_forcemap.envs.demonstrators import make_demonstrator
 from lerobot_robot_forcemap import channel
 from lerobot_robot_forcemap.cartesian import action_dict, action_features
 from lerobot_robot_forcemap.config_scripted_teleop import ScriptedTeleopConfig
+from lerobot_robot_forcemap.simulated import SimulatedDevice
 
 __all__ = ["ScriptedTeleop"]
 
 
-class ScriptedTeleop(Teleoperator):
+class ScriptedTeleop(SimulatedDevice, Teleoperator):
     """Replays the scripted demonstrator against the simulated robot's observation (module docstring)."""
 
     config_class = ScriptedTeleopConfig
@@ -32,7 +33,6 @@ class ScriptedTeleop(Teleoperator):
     def __init__(self, config: ScriptedTeleopConfig):
         super().__init__(config)
         self.config = config
-        self._connected = False
         self._episode = -1
         self._demo = None
         self._last: dict[str, float] | None = None
@@ -44,23 +44,6 @@ class ScriptedTeleop(Teleoperator):
     @property
     def feedback_features(self) -> dict[str, type]:
         return {}
-
-    @property
-    def is_connected(self) -> bool:
-        return self._connected
-
-    @property
-    def is_calibrated(self) -> bool:
-        return True
-
-    def connect(self, calibrate: bool = True) -> None:
-        self._connected = True
-
-    def calibrate(self) -> None:
-        """Nothing to calibrate."""
-
-    def configure(self) -> None:
-        """Nothing to configure."""
 
     def get_action(self) -> dict[str, float]:
         frame = channel.latest(self.config.robot_id)
@@ -81,6 +64,3 @@ class ScriptedTeleop(Teleoperator):
 
     def send_feedback(self, feedback: dict[str, Any]) -> None:
         """No feedback to a script."""
-
-    def disconnect(self) -> None:
-        self._connected = False
