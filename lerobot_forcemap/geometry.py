@@ -11,6 +11,8 @@ These run inside control loops, so they check only what would otherwise divide b
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -87,9 +89,13 @@ _Q2M_SIGNS = np.array([1.0, -1.0, 1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0])
 
 def quat_to_matrix(q: ArrayLike) -> NDArray[np.float64]:
     """Rotation matrices ``(..., 3, 3)`` of unit quaternions ``(..., 4)``."""
-    q = quat_normalize(q)
-    if q.ndim == 1:  # one quaternion: float arithmetic, no array calls per entry
+    q = np.asarray(q, dtype=float)
+    if q.shape == (4,):  # one quaternion: float arithmetic (the same floats as quat_normalize's array calls)
         w, x, y, z = q.tolist()
+        n = math.sqrt(w * w + x * x + y * y + z * z)
+        if n < 1e-12:
+            fail("q", "hold quaternions of norm >= 1e-12, got a (near) zero norm", n)
+        w, x, y, z = w / n, x / n, y / n, z / n
         return np.array(
             [
                 [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
@@ -98,6 +104,7 @@ def quat_to_matrix(q: ArrayLike) -> NDArray[np.float64]:
             ]
         )
     # a few calls on all entries at once: the envs call this on every control step
+    q = quat_normalize(q)
     flat = q.reshape(-1, 4)
     products = (flat[:, :, None] * flat[:, None, :]).reshape(-1, 16).take(_Q2M_PRODUCTS, axis=1)
     out = products[:, 9:] * _Q2M_SIGNS

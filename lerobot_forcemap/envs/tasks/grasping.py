@@ -177,6 +177,7 @@ class GraspTask(ForceTask):
     workspace: ClassVar[Workspace] = Workspace(low=(0.2, -0.35, 0.0), high=(0.75, 0.35, 0.5))
     pregrasp_name: ClassVar[str]  # e.g. "upright"
     fixture_bodies: ClassVar[tuple[str, ...]] = ()
+    _clearance_time: float | None = None
     varied: ClassVar[VariedParts] = VariedParts(free_joints=("object_free",))
     object_state_names: ClassVar[tuple[str, ...]] = (
         "obj_x", "obj_y", "obj_z", "obj_qw", "obj_qx", "obj_qy", "obj_qz",
@@ -234,6 +235,7 @@ class GraspTask(ForceTask):
         self.hold_time = 0.0
         self.max_clearance = 0.0
         self.clearance = 0.0
+        self._clearance_time = None  # the data.time whose state ``clearance`` measures
         self.pregrasp = False
         self.off_table = False
         return StartState(tcp_pos=start, tcp_quat=np.array(self.robot.tool_down_quat, float), gripper=0.0)
@@ -251,7 +253,10 @@ class GraspTask(ForceTask):
 
     def environment_state(self, data) -> np.ndarray:
         pos, quat = self.object_pose(data)
-        clearance = lowest_point(self.obj, pos, quat_to_matrix(quat))
+        if self._clearance_time == data.time:  # update() measured this physics state (every env.step)
+            clearance = self.clearance
+        else:
+            clearance = lowest_point(self.obj, pos, quat_to_matrix(quat))
         return np.concatenate(
             [
                 self.frame.pos_to_base(pos),
@@ -266,6 +271,7 @@ class GraspTask(ForceTask):
         pos, quat = self.object_pose(data)
         rot = quat_to_matrix(quat)
         self.clearance = lowest_point(self.obj, pos, rot)
+        self._clearance_time = data.time
         self.max_clearance = max(self.max_clearance, self.clearance)
         if self.clearance < RESTING_CLEARANCE and not self.pregrasp:
             self.pregrasp = self.pregrasp_achieved(pos, rot)
