@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lerobot_forcemap._validation import check_int, check_int_list, usage_errors
+from lerobot_forcemap._validation import check_int, check_int_list, fail, usage_errors
 from lerobot_forcemap.data.schema import require_dataset_root
 
 REPO = Path(__file__).resolve().parents[1]
@@ -38,6 +38,11 @@ def main(argv=None) -> int:
     parser.add_argument("--episodes", type=int, default=1000, help="episodes of the synthetic dataset")
     parser.add_argument("--fit", type=int, default=None, help="episodes fitted per run (default: all)")
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2], help="worker counts to time")
+    parser.add_argument(
+        "--keep", type=Path, default=None,
+        help="write the synthetic dataset to this folder and keep it; a later run with the same folder and "
+        "--episodes reuses it (writing is LeRobot's per-episode save, slower than the fits)",
+    )  # fmt: skip
     args = parser.parse_args(argv)
     with usage_errors(parser):
         dataset = require_dataset_root(args.dataset, "--dataset")
@@ -46,17 +51,37 @@ def main(argv=None) -> int:
         check_int("--fit", args.fit, low=1, high=args.episodes)
         check_int_list("--workers", args.workers, low=1)
     with tempfile.TemporaryDirectory() as tmp:
-        synthetic = Path(tmp) / "synthetic"
-        t0 = time.perf_counter()
-        frames = write_synthetic(dataset, synthetic, args.episodes)
-        print(
-            f"wrote {args.episodes} episodes ({frames} frames, from {dataset.name}) in "
-            f"{time.perf_counter() - t0:.1f} s",
-            file=sys.stderr,
-        )
+        synthetic = args.keep or Path(tmp) / "synthetic"
+        with usage_errors(parser):
+            frames = synthetic_dataset(dataset, synthetic, args.episodes)
         rows = [(w, time_fit(synthetic, Path(tmp) / f"lib_{w}", args.fit, w)) for w in args.workers]
     _print_table(rows, args, dataset, frames)
     return 0
+
+
+def synthetic_dataset(source: Path, out: Path, n_episodes: int) -> int:
+    """The synthetic dataset at ``out``: written, or reused when ``out`` holds one of ``n_episodes``
+    episodes; returns its number of frames."""
+    if (out / "meta" / "info.json").is_file():
+        from lerobot_forcemap.data.reader import read_meta
+
+        meta = read_meta(out)
+        if meta.total_episodes != n_episodes:
+            fail(
+                "--keep",
+                f"hold a synthetic dataset of {n_episodes} episodes (--episodes)",
+                meta.total_episodes,
+            )
+        frames = sum(e.length for e in meta.episodes)
+        print(f"reusing {n_episodes} episodes ({frames} frames) in {out}", file=sys.stderr)
+        return frames
+    t0 = time.perf_counter()
+    frames = write_synthetic(source, out, n_episodes)
+    print(
+        f"wrote {n_episodes} episodes ({frames} frames, from {source.name}) in {time.perf_counter() - t0:.1f} s",
+        file=sys.stderr,
+    )
+    return frames
 
 
 def write_synthetic(source: Path, out: Path, n_episodes: int) -> int:
