@@ -112,6 +112,7 @@ FINGERPRINTED_CODE = (
     "lerobot_forcemap/elmap/**/*.py",
     "lerobot_forcemap/segmentation/**/*.py",
     "lerobot_forcemap/skill/**/*.py",
+    "lerobot_forcemap/contact/**/*.py",
     "lerobot_forcemap/data/**/*.py",
     "lerobot_forcemap/envs/**/*.py",
     "lerobot_forcemap/envs/**/*.xml",
