@@ -197,26 +197,20 @@ def fetch_hub_checkpoint(repo_id: str, hub_kwargs: dict) -> Path:
         try:
             return Path(hf_hub_download(repo_id=repo_id, filename=filename, **hub_kwargs))
         except LocalEntryNotFoundError as err:
-            offline = is_offline_mode() or bool(hub_kwargs.get("local_files_only"))
-            if not offline:
+            if not (is_offline_mode() or hub_kwargs.get("local_files_only")):
                 raise ValueError(f"{repo_id}: cannot download {filename} ({err})") from err
-            what = f"{repo_id}: {filename} is not in the local Hugging Face cache and the Hub is not asked"
-            if required:
-                raise ValueError(
-                    f"{what}: download the checkpoint once online, or pass a local folder"
-                ) from err
-            logger.warning("%s; lerobot-eval needs it to run this policy", what)
+            cause, hint = err, "download the checkpoint once online, or pass a local folder"
+            missing = f"{filename} is not in the local Hugging Face cache and the Hub is not asked"
         except EntryNotFoundError as err:
-            if required:
-                raise ValueError(
-                    f"{repo_id}: the repo has no {filename} (a forcemap checkpoint holds config.json, "
-                    f"model.safetensors and {', '.join(PROCESSOR_FILES)})"
-                ) from err
-            logger.warning(
-                "%s: the repo has no %s; lerobot-eval needs it to run this policy", repo_id, filename
+            cause, missing = err, f"the repo has no {filename}"
+            hint = (
+                f"a forcemap checkpoint holds config.json, model.safetensors and {', '.join(PROCESSOR_FILES)}"
             )
         except HfHubHTTPError as err:  # no such repo or revision, no access
             raise ValueError(f"{repo_id}: cannot read {filename} from the Hub ({err})") from err
+        if required:
+            raise ValueError(f"{repo_id}: {missing}: {hint}") from cause
+        logger.warning("%s: %s; lerobot-eval needs it to run this policy", repo_id, missing)
         return None
 
     folder = fetch("config.json", required=True).parent
