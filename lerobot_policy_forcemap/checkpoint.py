@@ -17,12 +17,10 @@ import importlib
 import logging
 from pathlib import Path
 
-import numpy as np
 from huggingface_hub import hf_hub_download
 
 from lerobot_forcemap._validation import fail
 from lerobot_forcemap.jsonfile import read_json_object
-from lerobot_forcemap.skill.model import check_flat_arrays
 from lerobot_policy_forcemap.configuration_forcemap import FITTED_FIELDS, ForceMapConfig
 
 __all__ = [
@@ -32,7 +30,6 @@ __all__ = [
     "expected_tensors",
     "read_config_json",
     "check_safetensors_file",
-    "check_skill_values",
     "check_processor_files",
     "fetch_hub_checkpoint",
     "profile_shapes",
@@ -127,14 +124,6 @@ def check_safetensors_file(path: Path, config: ForceMapConfig) -> None:
         )
 
 
-def check_skill_values(arrays: dict[str, np.ndarray], config: ForceMapConfig, source: str) -> None:
-    """``lerobot_forcemap.skill.model.check_flat_arrays``, naming ``source`` (a file, or load_state_dict)."""
-    try:
-        check_flat_arrays(arrays, config.segment_n_nodes, config.segment_n_gripper_nodes)
-    except ValueError as err:
-        raise ValueError(f"{source}: {err}") from None
-
-
 def check_processor_files(
     folder: str | Path, *, required: bool, warn_missing: bool = True, raw_values: bool = False
 ) -> None:
@@ -150,10 +139,7 @@ def check_processor_files(
         path = Path(folder) / name
         if not path.is_file():
             if required:
-                raise ValueError(
-                    f"{path}: file not found (a checkpoint saved by lerobot-train or forcemap fit has "
-                    f"{' and '.join(PROCESSOR_FILES)} next to config.json)"
-                )
+                raise ValueError(f"{path}: file not found (lerobot-train and forcemap fit write it)")
             if warn_missing:
                 logger.warning("%s: file not found; lerobot-eval needs it to run this policy", path)
             continue
@@ -165,11 +151,7 @@ def check_processor_files(
                 _check_step_class(str(step["class"]), f"{path}: steps[{i}].class")
             norm_map = (step.get("config") or {}).get("norm_map") or {}
             if raw_values and isinstance(norm_map, dict) and any(m != "IDENTITY" for m in norm_map.values()):
-                fail(
-                    f"{path}: steps[{i}].config.norm_map",
-                    "map every feature type to 'IDENTITY' (the forcemap policy is fitted on raw dataset values)",
-                    norm_map,
-                )
+                fail(f"{path}: steps[{i}].config.norm_map", "map every feature type to 'IDENTITY'", norm_map)
 
 
 def _check_step_class(path: str, where: str) -> None:
@@ -197,26 +179,20 @@ def fetch_hub_checkpoint(repo_id: str, hub_kwargs: dict) -> Path:
         try:
             return Path(hf_hub_download(repo_id=repo_id, filename=filename, **hub_kwargs))
         except LocalEntryNotFoundError as err:
-            offline = is_offline_mode() or bool(hub_kwargs.get("local_files_only"))
-            if not offline:
+            if not (is_offline_mode() or hub_kwargs.get("local_files_only")):
                 raise ValueError(f"{repo_id}: cannot download {filename} ({err})") from err
-            what = f"{repo_id}: {filename} is not in the local Hugging Face cache and the Hub is not asked"
-            if required:
-                raise ValueError(
-                    f"{what}: download the checkpoint once online, or pass a local folder"
-                ) from err
-            logger.warning("%s; lerobot-eval needs it to run this policy", what)
+            cause, hint = err, "download the checkpoint once online, or pass a local folder"
+            missing = f"{filename} is not in the local Hugging Face cache and the Hub is not asked"
         except EntryNotFoundError as err:
-            if required:
-                raise ValueError(
-                    f"{repo_id}: the repo has no {filename} (a forcemap checkpoint holds config.json, "
-                    f"model.safetensors and {', '.join(PROCESSOR_FILES)})"
-                ) from err
-            logger.warning(
-                "%s: the repo has no %s; lerobot-eval needs it to run this policy", repo_id, filename
+            cause, missing = err, f"the repo has no {filename}"
+            hint = (
+                f"a forcemap checkpoint holds config.json, model.safetensors and {', '.join(PROCESSOR_FILES)}"
             )
         except HfHubHTTPError as err:  # no such repo or revision, no access
             raise ValueError(f"{repo_id}: cannot read {filename} from the Hub ({err})") from err
+        if required:
+            raise ValueError(f"{repo_id}: {missing}: {hint}") from cause
+        logger.warning("%s: %s; lerobot-eval needs it to run this policy", repo_id, missing)
         return None
 
     folder = fetch("config.json", required=True).parent

@@ -21,6 +21,8 @@ from lerobot.optim import SGDConfig
 from lerobot_forcemap import layout
 from lerobot_forcemap._validation import (
     check_bool,
+    check_choice,
+    check_dict,
     check_fields,
     check_int,
     check_int_list,
@@ -285,15 +287,9 @@ class ForceMapConfig(PreTrainedConfig):
     def validate_parameters(self) -> None:
         """Raise ``ValueError("ForceMapConfig.<field>: must ...")`` for any setting out of range."""
         check_fields("ForceMapConfig", self, _RULES)
-        check_segment_overrides("ForceMapConfig.segment_overrides", self.segment_overrides)
-        if self.n_obs_steps != 1:
-            fail("ForceMapConfig.n_obs_steps", "be 1 (the policy reads one observation)", self.n_obs_steps)
-        if any(m != NormalizationMode.IDENTITY for m in self.normalization_mapping.values()):
-            fail(
-                "ForceMapConfig.normalization_mapping",
-                "be IDENTITY for every feature type (the maps are fitted on raw dataset values)",
-                self.normalization_mapping,
-            )
+        mapping = self.normalization_mapping  # the maps are fitted on raw dataset values
+        if any(m != NormalizationMode.IDENTITY for m in mapping.values()):
+            fail("ForceMapConfig.normalization_mapping", "be IDENTITY for every feature type", mapping)
         if self.is_fitted:
             self._validate_fitted()
 
@@ -301,28 +297,14 @@ class ForceMapConfig(PreTrainedConfig):
         """The fitted sizes agree with each other (a hand-edited config.json is caught here)."""
         n = int(self.n_segments)
         for name in ("segment_n_nodes", "segment_n_gripper_nodes", "segment_anchors"):
-            if len(getattr(self, name)) != n:
-                fail(
-                    f"ForceMapConfig.{name}",
-                    f"hold one entry per segment (n_segments={n})",
-                    getattr(self, name),
-                )
-        check_int_list("ForceMapConfig.segment_n_nodes", self.segment_n_nodes, low=3)
-        check_int_list("ForceMapConfig.segment_n_gripper_nodes", self.segment_n_gripper_nodes, low=3)
+            if len(value := getattr(self, name)) != n:
+                fail(f"ForceMapConfig.{name}", f"hold one entry per segment (n_segments={n})", value)
         check_real("ForceMapConfig.fps", self.fps, low=0.0, low_open=True, unit="Hz")
         located = {slot.name for slot in object_slots(self.env_state_names)}
         if unknown := sorted({a for a in self.segment_anchors if a} - located):
             name = "segment_anchors" if self.env_state_names else "env_state_names"
-            where = f"env_state_names {self.env_state_names}"
-            fail(
-                f"ForceMapConfig.{name}",
-                f"name anchor objects with a position (<obj>_x/_y/_z) in {where}",
-                unknown,
-            )
-        for key, index in self.packed_features.items():  # positions in observation.state
-            check_int_list(
-                f"ForceMapConfig.packed_features[{key!r}]", index, low=0, non_empty=False, distinct=True
-            )
+            what = f"name objects with a position (<obj>_x/_y/_z) in env_state_names {self.env_state_names}"
+            fail(f"ForceMapConfig.{name}", what, unknown)
         if beyond := sorted(int(k) for k in self.segment_overrides if not 0 <= int(k) < n):
             fail("ForceMapConfig.segment_overrides", f"name segments of the fit (0..{n - 1})", beyond)
 
@@ -331,12 +313,9 @@ class ForceMapConfig(PreTrainedConfig):
         given for one (``lerobot-train --policy.fps=50``) would otherwise be dropped without a word."""
         for f in fields(self):
             default = f.default_factory() if f.default_factory is not MISSING else f.default
-            if f.name in FITTED_FIELDS and getattr(self, f.name) != default:
-                fail(
-                    f"ForceMapConfig.{f.name}",
-                    f"be left at its default ({default!r}): it is filled in by the fit (from the dataset)",
-                    getattr(self, f.name),
-                )
+            if f.name in FITTED_FIELDS and (value := getattr(self, f.name)) != default:
+                what = f"be left at its default ({default!r}): it is filled in by the fit (from the dataset)"
+                fail(f"ForceMapConfig.{f.name}", what, value)
 
     @property
     def is_fitted(self) -> bool:
@@ -402,6 +381,8 @@ class ForceMapConfig(PreTrainedConfig):
 #: the check of every setting: the fit settings' from the skill layer, then those of acting
 _RULES = {
     **RULES,
+    "segment_overrides": check_segment_overrides,
+    "n_obs_steps": partial(check_choice, choices=(1,)),  # the policy reads one observation
     "episodes": partial(check_int_list, low=0, distinct=True),
     "robot_pose_key": check_str,
     "reanchor": check_bool,
@@ -417,6 +398,13 @@ _RULES = {
     "demo_depth": partial(check_real, low=0.0, unit="m"),
     "feedback_depth_ratio": partial(check_real, low=0.0),
     "n_force_profile": partial(check_int, low=0),
+    # fitted sizes: one entry per segment, checked against n_segments once fitted
+    "segment_n_nodes": partial(check_int_list, low=3, non_empty=False),
+    "segment_n_gripper_nodes": partial(check_int_list, low=3, non_empty=False),
+    # positions in observation.state
+    "packed_features": partial(
+        check_dict, values=partial(check_int_list, low=0, non_empty=False, distinct=True)
+    ),
     "force_feedback": check_bool,
     "force_budget": partial(check_real, low=0.0, unit="N"),
     "feedback_lift_gain": partial(check_real, low=0.0, unit="m/(N s)"),

@@ -44,7 +44,7 @@ from lerobot_forcemap.data.reader import read_episodes, to_meta
 from lerobot_forcemap.skill.episodes import EpisodeArrays, episodes_from_columns, needed_columns
 from lerobot_forcemap.skill.feedback import FeedbackGains, ForceFeedback, ForceProfile, force_profile
 from lerobot_forcemap.skill.fit import FitReport, fit_skill
-from lerobot_forcemap.skill.model import FittedSkill
+from lerobot_forcemap.skill.model import FittedSkill, check_flat_arrays
 from lerobot_forcemap.skill.params import SkillParams
 from lerobot_forcemap.skill.placement import SkillRun, object_poses, object_slots, path_distances
 from lerobot_policy_forcemap.checkpoint import (
@@ -53,7 +53,6 @@ from lerobot_policy_forcemap.checkpoint import (
     SKILL_TENSORS,
     check_processor_files,
     check_safetensors_file,
-    check_skill_values,
     expected_tensors,
     fetch_hub_checkpoint,
     read_config_json,
@@ -116,8 +115,6 @@ class ForceMapPolicy(PreTrainedPolicy):
         **kwargs: Any,
     ):
         super().__init__(config)
-        if not isinstance(config, ForceMapConfig):
-            raise ValueError(f"ForceMapPolicy needs a ForceMapConfig, got {type(config).__name__}")
         config.validate_features()
         self.config: ForceMapConfig = config
         # LeRobot's optimiser refuses an empty parameter list and backward() needs a graph.
@@ -219,10 +216,7 @@ class ForceMapPolicy(PreTrainedPolicy):
     def skill(self) -> FittedSkill:
         """The fitted skill (NumPy) built from the buffers."""
         if not self.config.is_fitted:
-            raise ValueError(
-                "ForceMapPolicy is not fitted: build it with a dataset (lerobot-train --policy.type=forcemap "
-                "--steps=1 ..., `forcemap fit`) or load a checkpoint (from_pretrained / --policy.path)"
-            )
+            raise ValueError("ForceMapPolicy is not fitted: fit it (lerobot-train, forcemap fit) or load one")
         if self._skill is None:
             arrays = {name: self.get_buffer(name).detach().cpu().numpy() for name in SKILL_TENSORS}
             cfg = self.config
@@ -249,10 +243,6 @@ class ForceMapPolicy(PreTrainedPolicy):
             raise ValueError(f"{where}: cannot read the policy config: {config_error_detail(err)}") from err
         if config is None:
             config = stored
-        if not isinstance(config, ForceMapConfig):
-            raise ValueError(
-                f"{where}: policy type {getattr(config, 'type', type(config).__name__)!r} is not 'forcemap'"
-            )
         # `lerobot-eval/train --policy.path=CKPT --policy.stiffness=...`: LeRobot applies the flag to the
         # config, but the maps were fitted with the stored value and are not refitted on load
         _refuse_changed_fit_settings(config, stored, where)
@@ -276,11 +266,11 @@ class ForceMapPolicy(PreTrainedPolicy):
 
     def _load_checked(self, state_dict, source: str, *, strict: bool, assign: bool = False):
         """``load_state_dict`` after checking the fitted values (named after ``source``)."""
-        if self.config.is_fitted and all(name in state_dict for name in SKILL_TENSORS):
+        cfg = self.config
+        if cfg.is_fitted and all(name in state_dict for name in SKILL_TENSORS):
             names = [name for name in (*SKILL_TENSORS, DUMMY_PARAMETER) if name in state_dict]
-            check_skill_values(
-                {name: _to_numpy(state_dict[name], repr(name)) for name in names}, self.config, source
-            )
+            arrays = {name: _to_numpy(state_dict[name], repr(name)) for name in names}
+            check_flat_arrays(arrays, cfg.segment_n_nodes, cfg.segment_n_gripper_nodes, source)
         result = super().load_state_dict(state_dict, strict=strict, assign=assign)
         self._skill = None  # rebuilt from the new buffers on first use
         self.reset()
@@ -383,9 +373,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         if self._run is None:
             self._run = self._start(batch, n)
         elif len(self._run.placed) != n:
-            raise ValueError(
-                f"batch size changed from {len(self._run.placed)} to {n} within an episode; call reset() between episodes"
-            )
+            fail("batch size", f"stay {len(self._run.placed)} within an episode (reset() starts one)", n)
         t = self._step / self.clock_hz
         if self._run.due(t):
             # the observation is read first: a refused one (NaN, wrong width) retried with a good one
@@ -398,15 +386,6 @@ class ForceMapPolicy(PreTrainedPolicy):
         cfg, skill = self.config, self.skill
         self._check_task(batch, n)
         robot = _rows(batch, cfg.robot_pose_key, n) if cfg.reanchor else None
-        if robot is not None and robot.shape[1] != 7:
-            raise ValueError(
-                f"observation {cfg.robot_pose_key!r}: needs [x y z qw qx qy qz], got width {robot.shape[1]}"
-            )
-        # 1e-6, as the env's action check: a quaternion that small carries no orientation
-        if robot is not None and np.any(zero := np.linalg.norm(robot[:, 3:7], axis=1) < 1e-6):
-            raise ValueError(
-                f"observation {cfg.robot_pose_key!r}: zero quaternion (qw qx qy qz) at batch row {int(np.argmax(zero))}"
-            )
         scenes = (
             self._scenes(batch, n) if cfg.reanchor and any(skill.anchors) else [skill.demo_object_poses()] * n
         )
@@ -418,6 +397,7 @@ class ForceMapPolicy(PreTrainedPolicy):
             online=cfg.reanchor and cfg.reanchor_online,
             tolerance=cfg.reanchor_tolerance,
             blend_s=cfg.reanchor_blend_s,
+            robot_name=f"observation {cfg.robot_pose_key!r}",
         )
 
     def _scenes(self, batch: dict[str, Any], n: int) -> list[dict[str, np.ndarray]]:
@@ -448,10 +428,8 @@ class ForceMapPolicy(PreTrainedPolicy):
         unknown = sorted(set(tasks) - set(cfg.dataset_tasks)) if cfg.dataset_tasks else []
         if unknown and cfg.check_task:
             raise ValueError(
-                f"the env asks for task(s) {unknown}, but this policy was fitted on demonstrations of "
-                f"{cfg.dataset_tasks} (environment_state {cfg.env_state_names}); evaluate it on that task, or "
-                "set check_task=false if the scene is the same under another name (lerobot-eval "
-                "--policy.check_task=false, or in the checkpoint's config.json)"
+                f"the env asks for task(s) {unknown}, but this policy was fitted on {cfg.dataset_tasks}; "
+                "evaluate it on that task, or set --policy.check_task=false if the scene is the same"
             )
         if unknown and cfg.control_fps is None and not self._warned_clock:
             # another env than the demonstrations': its control rate is unknown to the policy
@@ -478,19 +456,15 @@ class ForceMapPolicy(PreTrainedPolicy):
             )
         if reduction not in ("mean", "none"):
             raise ValueError(f"forward: reduction must be 'mean' or 'none', got {reduction!r}")
-        if cfg.pose_key not in batch:
-            raise ValueError(f"forward: batch has no {cfg.pose_key!r} (keys: {sorted(batch)})")
-        pose = batch[cfg.pose_key]
+        pose = batch.get(cfg.pose_key)
         # the rows of the pose itself (a batch of actions alone is a batch too); observations must agree
         n = int(pose.shape[0]) if getattr(pose, "ndim", 0) == 2 else _batch_size(batch)
         observed = _observation_rows(batch)
         if observed and observed != {n}:
             raise ValueError(f"forward: {cfg.pose_key!r} has {n} rows, the observations {sorted(observed)}")
-        rows = _rows(batch, cfg.pose_key, n)
-        if rows.shape[1] < 3:
-            raise ValueError(
-                f"forward: {cfg.pose_key!r} needs [x y z ...] per row, got {rows.shape[1]} entries"
-            )
+        rows = _rows(batch, cfg.pose_key, n, name=f"forward: batch {cfg.pose_key!r}")
+        if (width := rows.shape[1]) < 3:
+            raise ValueError(f"forward: {cfg.pose_key!r} needs [x y z ...] per row, got {width} entries")
         use_env = any(skill.anchors) and cfg.env_state_key in batch
         scenes = self._scenes(batch, n) if use_env else [skill.demo_object_poses()] * n
         dist = path_distances(skill, self.params, rows[:, :3], scenes)
@@ -545,9 +519,8 @@ def _refuse_another_task(config: ForceMapConfig, dataset_meta: Any) -> None:
     tasks = sorted(to_meta(dataset_meta).tasks)
     if not set(tasks) & set(config.dataset_tasks):
         raise ValueError(
-            f"{config.pretrained_path}: fitted on demonstrations of {config.dataset_tasks}, but the "
-            f"dataset {dataset_meta.root or dataset_meta.repo_id} holds {tasks}; to fit that dataset "
-            "use --policy.type=forcemap instead of --policy.path (the fit is closed form)"
+            f"{config.pretrained_path}: fitted on demonstrations of {config.dataset_tasks}, but the dataset "
+            f"{dataset_meta.root or dataset_meta.repo_id} holds {tasks}; fit it with --policy.type=forcemap"
         )
 
 
@@ -556,10 +529,9 @@ def _refuse_changed_fit_settings(config: ForceMapConfig, stored: ForceMapConfig,
     if changed:
         diffs = ", ".join(f"{name} {old!r} -> {new!r}" for name, (old, new) in changed.items())
         raise ValueError(
-            f"{where}: the checkpoint was fitted with other settings than asked for ({diffs}); a checkpoint "
-            "stores fitted maps and loading does not refit them. Refit with these settings (lerobot-train "
-            "--policy.type=forcemap --policy.<name>=..., or forcemap fit --set <name>=...); settings read only "
-            f"while acting may change at load: {', '.join(RUNTIME_FIELDS)}"
+            f"{where}: the checkpoint was fitted with other settings than asked for ({diffs}); loading does "
+            "not refit: refit with them (lerobot-train --policy.<name>=..., forcemap fit --set <name>=...); "
+            f"settings read only while acting may change at load: {', '.join(RUNTIME_FIELDS)}"
         )
 
 
@@ -604,15 +576,14 @@ def _to_numpy(value: Any, key: str) -> np.ndarray:
     return np.asarray(value)
 
 
-def _rows(batch: dict[str, Any], key: str, n: int) -> np.ndarray:
+def _rows(batch: dict[str, Any], key: str, n: int, name: str = "") -> np.ndarray:
     """``batch[key]`` as a float64 ``(n, width)`` array, finite (a 1-D one is one row: LeRobot batches
-    only some observations)."""
-    name = f"observation {key!r}"
+    only some observations); errors name it ``name`` (default: ``observation '<key>'``)."""
+    name = name or f"observation {key!r}"
     if key not in batch:
         raise ValueError(f"{name} is missing (keys: {sorted(k for k in batch if isinstance(k, str))})")
     raw = _to_numpy(batch[key], name)
     if raw.dtype.kind != "f" and raw.size:  # an integer pose was already rounded to whole metres
         fail(name, "hold floating-point values", raw.dtype)
-    return check_array(
-        name, raw[None] if raw.ndim == 1 else raw, shape=(n, None), axes=("batch row", "entry")
-    )
+    rows = raw[None] if raw.ndim == 1 else raw
+    return check_array(name, rows, shape=(n, None), axes=("batch row", "entry"))

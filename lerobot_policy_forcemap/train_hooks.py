@@ -50,12 +50,8 @@ def episodes_to_fit(policy_episodes: list[int], dataset_episodes: list[int] | No
     if list(policy_episodes) == DEFAULT_EPISODES:
         return chosen
     if missing := sorted(set(policy_episodes) - set(chosen)):
-        fail(
-            "ForceMapConfig.episodes",
-            f"be among --dataset.episodes={chosen} (LeRobot loads only those; episode(s) {missing} "
-            "are not); give one of the two flags, or episodes of --dataset.episodes",
-            list(policy_episodes),
-        )
+        what = f"be among --dataset.episodes={chosen} (LeRobot loads only those; {missing} are not)"
+        fail("ForceMapConfig.episodes", f"{what}: give one of the two flags", list(policy_episodes))
     return list(policy_episodes)
 
 

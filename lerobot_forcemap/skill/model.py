@@ -165,29 +165,34 @@ class FittedSkill:
 
 
 def check_flat_arrays(
-    arrays: Mapping[str, np.ndarray], segment_n_nodes: Sequence[int], segment_n_gripper_nodes: Sequence[int]
+    arrays: Mapping[str, np.ndarray],
+    segment_n_nodes: Sequence[int],
+    segment_n_gripper_nodes: Sequence[int],
+    source: str = "",
 ) -> None:
-    """Raise ``ValueError("tensor '<name>' ...")`` unless the flat arrays (:meth:`FittedSkill.flat_arrays`,
-    plus any others given, which are checked for range only) hold possible values: finite and within
-    ±:data:`MAX_MAGNITUDE`, durations > 0, node times non-decreasing within their segment's
-    ``[0, duration]``, unit quaternions."""
+    """Raise ``ValueError("<source>: tensor '<name>' ...")`` unless the flat arrays
+    (:meth:`FittedSkill.flat_arrays`, plus any others given, which are checked for range only) hold
+    possible values: finite and within ±:data:`MAX_MAGNITUDE`, durations > 0, node times non-decreasing
+    within their segment's ``[0, duration]``, unit quaternions. ``source``: where the arrays come from
+    (a file), named first when given."""
+    at = f"{source}: " if source else ""
     for name, a in arrays.items():
         bad = ~(np.abs(a) <= MAX_MAGNITUDE)
         if bad.any():
             what = "non-finite" if not np.isfinite(a).all() else f"beyond ±{MAX_MAGNITUDE:g}"
             first = np.argwhere(bad)[0].tolist()
-            raise ValueError(f"tensor {name!r} has {int(bad.sum())} {what} value(s), first at {first}")
+            raise ValueError(f"{at}tensor {name!r} has {int(bad.sum())} {what} value(s), first at {first}")
     durations = arrays["durations"]
     if np.any(durations <= 0):
-        raise ValueError(f"tensor 'durations' must be > 0, got {durations.tolist()}")
+        raise ValueError(f"{at}tensor 'durations' must be > 0, got {durations.tolist()}")
     for name, sizes in (("node_times", segment_n_nodes), ("gripper_node_times", segment_n_gripper_nodes)):
         for s, part in enumerate(np.split(arrays[name], np.cumsum(sizes)[:-1])):
             if np.any(np.diff(part) < 0):
-                raise ValueError(f"tensor {name!r} decreases within segment {s}")
+                raise ValueError(f"{at}tensor {name!r} decreases within segment {s}")
             slack = 1e-6 * max(1.0, float(durations[s]))  # float32 rounding of node times
             if part.size and (part[0] < -slack or part[-1] > durations[s] + slack):
                 raise ValueError(
-                    f"tensor {name!r} in segment {s} spans [{part[0]:.6g}, {part[-1]:.6g}] s, "
+                    f"{at}tensor {name!r} in segment {s} spans [{part[0]:.6g}, {part[-1]:.6g}] s, "
                     f"outside the segment's [0, {durations[s]:.6g}] s (tensor 'durations')"
                 )
     for name, quats in (
@@ -198,7 +203,7 @@ def check_flat_arrays(
         norms = np.linalg.norm(quats, axis=1)
         if np.any(np.abs(norms - 1.0) > 1e-6):
             i = int(np.argmax(np.abs(norms - 1.0)))
-            raise ValueError(f"tensor {name!r} row {i} is not a unit quaternion (norm {norms[i]:.6g})")
+            raise ValueError(f"{at}tensor {name!r} row {i} is not a unit quaternion (norm {norms[i]:.6g})")
 
 
 @dataclass(frozen=True)

@@ -535,11 +535,15 @@ class SkillRun:
         online: bool,
         tolerance: float = 0.0,
         blend_s: float | None = None,
+        robot_name: str = "robot_poses",
     ) -> SkillRun:
-        """Place the skill in each row's scene: ``robot_poses (n, 7)`` (None: the stored start) and
-        ``object_poses[i]`` ``{object: (7,)}``. ``online``: re-anchor segments when they start, and
-        until then lay out those whose object moves before them as provisional; ``tolerance`` (m):
-        shifts at most this are ignored; ``blend_s``: see :func:`reanchor_segment`."""
+        """Place the skill in each row's scene: ``robot_poses (n, 7)`` (None: the stored start; a zero
+        quaternion or another width is refused, naming ``robot_name``) and ``object_poses[i]``
+        ``{object: (7,)}``. ``online``: re-anchor segments when they start, and until then lay out those
+        whose object moves before them as provisional; ``tolerance`` (m): shifts at most this are
+        ignored; ``blend_s``: see :func:`reanchor_segment`."""
+        if robot_poses is not None:
+            _check_robot_poses(robot_name, robot_poses)
         demo = skill.demo_object_poses()
         provisional = (
             provisional_segments(skill, demo, params.anchoring.static_tolerance)
@@ -602,6 +606,15 @@ class SkillRun:
                     provisional=self.provisional,
                 )
                 self.log.append({"segment": s, "row": i, "t": float(t), "shift": [float(v) for v in shift]})
+
+
+def _check_robot_poses(name: str, poses: Array) -> None:
+    """``poses (n, 7)`` are ``[x y z qw qx qy qz]`` rows whose quaternions carry an orientation (norm
+    >= 1e-6, as the env's action check)."""
+    if poses.shape[1] != 7:
+        raise ValueError(f"{name}: needs [x y z qw qx qy qz], got width {poses.shape[1]}")
+    if np.any(zero := np.linalg.norm(poses[:, 3:7], axis=1) < 1e-6):
+        raise ValueError(f"{name}: zero quaternion (qw qx qy qz) at batch row {int(np.argmax(zero))}")
 
 
 def path_distances(

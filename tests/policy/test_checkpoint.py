@@ -231,9 +231,8 @@ def test_anchor_poses_need_unit_quaternions(ckpt, name):
 
 
 def test_value_checks_name_the_field():
-    from lerobot_policy_forcemap.checkpoint import check_skill_values
+    from lerobot_forcemap.skill.model import check_flat_arrays
 
-    cfg = mock.Mock(segment_n_nodes=[3], segment_n_gripper_nodes=[3])
     arrays = {
         "nodes": np.zeros((3, 3)),
         "node_times": np.array([0.0, 0.2, 0.1]),
@@ -244,13 +243,12 @@ def test_value_checks_name_the_field():
         "anchor_poses": np.zeros((1, 7)),
     }
     with pytest.raises(ValueError, match="src: tensor 'node_times' decreases within segment 0"):
-        check_skill_values(arrays, cfg, "src")
+        check_flat_arrays(arrays, [3], [3], "src")
 
 
 def test_node_times_must_lie_in_their_segment():
-    from lerobot_policy_forcemap.checkpoint import check_skill_values
+    from lerobot_forcemap.skill.model import check_flat_arrays
 
-    cfg = mock.Mock(segment_n_nodes=[3], segment_n_gripper_nodes=[3])
     arrays = {
         "nodes": np.zeros((3, 3)),
         "node_times": np.array([0.0, 0.5, 1.0]),
@@ -261,13 +259,13 @@ def test_node_times_must_lie_in_their_segment():
         "anchor_poses": np.tile([0, 0, 0, 1.0, 0, 0, 0], (1, 1)),
         "anchor_initial_poses": np.tile([0, 0, 0, 1.0, 0, 0, 0], (1, 1)),
     }
-    check_skill_values(arrays, cfg, "src")  # consistent: passes
+    check_flat_arrays(arrays, [3], [3], "src")  # consistent: passes
     arrays["gripper_node_times"] = np.array([0.0, 0.5, 4.0])
     with pytest.raises(
         ValueError,
         match=r"src: tensor 'gripper_node_times' in segment 0 spans \[0, 4\] s, outside .*\[0, 1\] s",
     ):
-        check_skill_values(arrays, cfg, "src")
+        check_flat_arrays(arrays, [3], [3], "src")
 
 
 @pytest.mark.parametrize(

@@ -76,3 +76,18 @@ def test_a_new_start_before_an_anchored_segment_bends_the_approach_to_meet_it(an
     np.testing.assert_allclose(approach.nodes - fitted.nodes, (1.0 - u)[:, None] * offset, atol=1e-12)
     for s in (1, 2, 3):
         np.testing.assert_allclose(rep.segments[s].nodes, stored.segments[s].nodes, atol=1e-12)
+
+
+def test_skill_run_refuses_robot_poses_that_are_not_poses(free):
+    """``SkillRun.start`` places from ``[x y z qw qx qy qz]`` rows: another width, or a quaternion too
+    small to carry an orientation, is named with the row."""
+    from lerobot_forcemap.skill.placement import SkillRun
+
+    skill, cfg = free
+    good = np.stack([_start(skill), _start(skill)])
+    SkillRun.start(skill, cfg, good, [{}, {}], online=False)
+    with pytest.raises(ValueError, match=r"robot_poses: needs \[x y z qw qx qy qz\], got width 8"):
+        SkillRun.start(skill, cfg, np.pad(good, ((0, 0), (0, 1))), [{}, {}], online=False)
+    good[1, 3:7] = 1e-7
+    with pytest.raises(ValueError, match=r"pose: zero quaternion \(qw qx qy qz\) at batch row 1"):
+        SkillRun.start(skill, cfg, good, [{}, {}], online=False, robot_name="pose")
