@@ -4,7 +4,7 @@ Run from the repository root: ``python -m benchmarks.bench_structure [ROOT]``.
 
 Validation lines: code lines (no blanks, comments, docstrings) of
   - the module lerobot_forcemap/_validation.py;
-  - statements calling a checker (check_*, fail, _check*, _require*, need, validate*), whole statement;
+  - statements calling a checker (check_*, fail, _check*, _require*, require_*, validate*), whole statement;
   - `if ...: raise ValueError/TypeError(...)` blocks whose body is only a raise (the if and the raise);
   - bare `raise ValueError(...)` statements.
 """
@@ -24,7 +24,7 @@ PACKAGES = [
     "experiments",
     "benchmarks",
 ]
-CHECK_PREFIXES = ("check_", "fail", "_check", "_require", "need", "validate", "_validate", "require_")
+CHECK_PREFIXES = ("check_", "fail", "_check", "_require", "validate", "_validate", "require_")
 
 
 def code_lines(src: str) -> set[int]:
