@@ -43,7 +43,6 @@ STIFFNESS_RANGE = (50.0, 50000.0)  # N/m
 CALIBRATION_ROUNDS = 4
 MIN_SUCCESS_DEPTH = 0.0005  # m: a press must move the button at least this much
 MIN_COVERAGE = 0.1  # a wipe must cover at least this share of the demonstrated path
-PRESS_TRAVEL = 0.003  # m: a press that travelled more shows the button's axis
 
 
 @dataclass(frozen=True)
@@ -109,6 +108,38 @@ def _tcp_positions(env: TwinEnv, joints: np.ndarray) -> np.ndarray:
     return out
 
 
+def _tool_tip(env: TwinEnv, joints: np.ndarray, gripper: float, normal: np.ndarray) -> np.ndarray:
+    """Where the simulated robot at ``joints`` (gripper closure ``gripper``) first meets a surface
+    whose outward normal is ``normal`` (base frame): the centre of the lowest face along ``-normal``
+    of its lowest collision geom (bounding-box corners within 1 mm of the lowest). An open gripper's
+    tip is a finger pad, not its TCP (which lies in the gap between the fingers)."""
+    m, d, ix = env.model, env._scratch, env.index
+    d.qpos[ix.arm_qpos] = joints
+    d.qpos[ix.gripper_qpos] = env.robot.gripper.closure_qpos(gripper)
+    mujoco.mj_kinematics(m, d)
+    signs = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], float)
+    best, best_h = None, np.inf
+    for g in _tool_geoms(m, int(m.site_bodyid[ix.tcp_site])):
+        local = m.geom_aabb[g, :3] + signs * m.geom_aabb[g, 3:]
+        corners = env.frame.pos_to_base(d.geom_xpos[g] + local @ d.geom_xmat[g].reshape(3, 3).T)
+        h = corners @ normal
+        if h.min() < best_h:
+            best, best_h = corners[h <= h.min() + 1e-3].mean(axis=0), float(h.min())
+    return best
+
+
+def _tool_geoms(m: mujoco.MjModel, tool_body: int) -> list[int]:
+    """The collision geoms of ``tool_body`` and the bodies below it (the gripper on the flange)."""
+    out = []
+    for g in range(m.ngeom):
+        b = int(m.geom_bodyid[g])
+        while b not in (0, tool_body):
+            b = int(m.body_parentid[b])
+        if b == tool_body and m.geom_contype[g] & 2:
+            out.append(g)
+    return out
+
+
 def _surface_frame(normal: np.ndarray, along: np.ndarray | None = None) -> np.ndarray:
     """Quaternion of a frame whose z is ``normal`` (x along ``along`` projected on the plane)."""
     z = normal / np.linalg.norm(normal)
@@ -133,14 +164,11 @@ def _contact(rec: Recording, kinesthetic: bool):
     return est.surfaces[best], masks[best], normal_force[best]
 
 
-def _normal(inside: np.ndarray, normal: np.ndarray) -> np.ndarray:
-    """A press's normal: its travel direction inside the contact when it travelled more than
-    ``PRESS_TRAVEL`` (the button's axis), else the contact's ``normal`` (a tap on a stiff button)."""
-    centred = inside - inside.mean(axis=0)
-    axis = np.linalg.svd(centred, full_matrices=False)[2][0]
-    if np.ptp(centred @ axis) <= PRESS_TRAVEL:
-        return normal
-    return axis if axis @ normal >= 0 else -axis
+def _tool_axis(quat: np.ndarray) -> np.ndarray:
+    """A press's normal: against the recorded tool's z axis (the tool points into the button). The
+    reaction's direction and the path inside the contact also carry the hand's push in kinesthetic
+    recordings."""
+    return -quat_to_matrix(quat)[:, 2]
 
 
 def _fit_spring(depth: np.ndarray, force: np.ndarray) -> tuple[float, float, float]:
@@ -200,18 +228,14 @@ def _provisional(rec: Recording, offset: np.ndarray, quat: np.ndarray, kind: str
 def _geometry(env: TwinEnv, scene: TwinScene, rec: Recording, surface, mask: np.ndarray, force: np.ndarray):
     """The surface's placement, size, spring and workspace from the contact (see the module docstring)."""
     tcp = _tcp_positions(env, rec.joints)
-    n = (
-        _normal(rec.pose[mask, :3], np.asarray(surface.normal, float))
-        if scene.kind == "press"
-        else surface.normal
-    )
-    s = rec.pose[:, :3] @ n
     td = int(np.argmax(mask))
+    n = _tool_axis(rec.pose[td, 3:7]) if scene.kind == "press" else np.asarray(surface.normal, float)
+    s = rec.pose[:, :3] @ n
     depth = s[td] - s
     k, preload, stop = _fit_spring(depth[mask], force[mask])
     inside = tcp[mask]
     if scene.kind == "press":
-        centre, half, along = tcp[td], (0.018, 0.018), None
+        centre, half, along = _tool_tip(env, rec.joints[td], scene.gripper, n), (0.018, 0.018), None
         path = ()
     else:
         flat = inside - np.outer((inside - inside.mean(0)) @ n, n)
@@ -233,7 +257,7 @@ def _geometry(env: TwinEnv, scene: TwinScene, rec: Recording, surface, mask: np.
     window = (rec.times[mask][0] - 0.5, rec.times[mask][-1] + 0.5)
     lift, deepest_tcp = _replay_lift(env, scene, rec, n, s[td], float(force[mask].max()), window)
     if lift > 0 and scene.kind == "press":  # where the lagging replay comes down, not the recorded point
-        off = deepest_tcp - pos
+        off = deepest_tcp - tcp[td]
         pos = pos + off - (off @ n) * n
     return replace(scene, surface_pos=tuple(float(x) for x in pos + lift * n)), depth, lift
 
