@@ -76,7 +76,9 @@ def _replay_actor(actions: np.ndarray):
     return reset, act
 
 
-def _policy_actor(dataset: Path, ckpt: Path, task: str):
+def _policy_actor(dataset: Path, ckpt: Path, task: str, control_hz: float):
+    """The forcemap policy fitted one-shot on ``dataset``, stepping its skill at the twin's control rate
+    (the recording's 50 fps would stretch its timing 2.5 times in the 20 Hz twin)."""
     from lerobot_forcemap.cli.fit import fit_policy
     from lerobot_forcemap.evaluation.evaluate import lerobot_actor, load_policy
 
@@ -84,6 +86,7 @@ def _policy_actor(dataset: Path, ckpt: Path, task: str):
         shutil.rmtree(ckpt, ignore_errors=True)
         fit_policy(dataset, ckpt, episodes=[0])
     policy, pre, post = load_policy(ckpt)
+    policy.config.control_fps = control_hz
     return lerobot_actor(policy, pre, post, task)
 
 
@@ -96,7 +99,10 @@ def run_one(name: str, h5: Path, workdir: Path) -> dict:
     env = make_twin(build.scene, render_mode=None)
     try:
         demo = _run(env, _replay_actor(replay_actions(read_recording(dataset, 0))))
-        repro = _run(env, _policy_actor(dataset, workdir / "checkpoints" / name, build.scene.task))
+        actor = _policy_actor(
+            dataset, workdir / "checkpoints" / name, build.scene.task, 1.0 / env.unwrapped.control_dt
+        )
+        repro = _run(env, actor)
     finally:
         env.close()
     change = {
