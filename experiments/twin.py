@@ -118,6 +118,14 @@ def _pct(x: float) -> str:
     return "n/a" if not np.isfinite(x) else f"{x:+.1f} %"
 
 
+def _reached(row: dict) -> str:
+    """Press: the button's travel (mm); wipe: the share of the demonstrated path covered."""
+    d, q, t = row["demo"], row["repro"], row["twin"]
+    if t["kind"] == "press":
+        return f"{d['travel_mm']:.2f} / {q['travel_mm']:.2f} / {t['success_depth_mm']:.2f} mm"
+    return f"{d['coverage']:.2f} / {q['coverage']:.2f} / {t['coverage_goal']:.2f}"
+
+
 def render(rows: list[dict]) -> str:
     """The markdown page."""
     lines = [
@@ -151,15 +159,15 @@ def render(rows: list[dict]) -> str:
         "",
         "## Demonstration replay against the forcemap reproduction",
         "",
-        "| recording | kind | success demo / repro | max F demo / repro (N) | change | mean F demo / repro (N) | change |",
-        "|---|---|---|---|---|---|---|",
+        "| recording | kind | success demo / repro | reached demo / repro / needed | max F demo / repro (N) | change | mean F demo / repro (N) | change |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         d, q, c = r["demo"], r["repro"], r["change_pct"]
         lines.append(
             f"| {r['recording']} | {r['twin']['kind']} | {'yes' if d['success'] else 'no'} / "
-            f"{'yes' if q['success'] else 'no'} | {d['max_force_n']:.1f} / {q['max_force_n']:.1f} | {_pct(c['max'])} "
-            f"| {d['mean_force_n']:.2f} / {q['mean_force_n']:.2f} | {_pct(c['mean'])} |"
+            f"{'yes' if q['success'] else 'no'} | {_reached(r)} | {d['max_force_n']:.1f} / {q['max_force_n']:.1f} "
+            f"| {_pct(c['max'])} | {d['mean_force_n']:.2f} / {q['mean_force_n']:.2f} | {_pct(c['mean'])} |"
         )
     lines += ["", "## Against the paper's Table II (real robot, demonstrations against reproductions)", ""]
     lines += [

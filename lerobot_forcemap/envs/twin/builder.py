@@ -333,6 +333,15 @@ def _calibrate(env: TwinEnv, scene: TwinScene, rec: Recording, force: np.ndarray
     return scene, _score(sim @ normal, wanted), info
 
 
+def _press_depth(scene: TwinScene, reached: float, hold: float) -> float:
+    """Travel (m) that counts as a press: what the force the demonstration held the button with
+    (``hold`` N, the median reaction inside the contact; its peak is the touch-down's impact) moves
+    the fitted spring, at least ``MIN_SUCCESS_DEPTH``, at most 90 % of the replay's travel
+    ``reached`` (the replay of the demonstration succeeds) unless that is below the minimum."""
+    held = (hold - scene.preload) / scene.stiffness
+    return min(max(held, MIN_SUCCESS_DEPTH), max(0.9 * reached, MIN_SUCCESS_DEPTH))
+
+
 def build_twin(dataset: str | Path, episode: int = 0, *, kinesthetic: bool = True) -> TwinBuild:
     """The calibrated twin of episode ``episode`` of the converted recording ``dataset`` (module
     docstring). ``kinesthetic``: a hand guided the tool (lab recordings); False for simulation and
@@ -352,7 +361,7 @@ def build_twin(dataset: str | Path, episode: int = 0, *, kinesthetic: bool = Tru
     reached = float(info["max_surface_travel"]) if kind == "press" else float(info["coverage"])
     scene = replace(
         scene,
-        success_depth=max(0.9 * reached, MIN_SUCCESS_DEPTH),
+        success_depth=_press_depth(scene, reached, float(np.median(force[mask]))),
         coverage_goal=max(0.9 * reached, MIN_COVERAGE) if kind == "wipe" else 0.9,
     )
     report = {
@@ -371,7 +380,9 @@ def build_twin(dataset: str | Path, episode: int = 0, *, kinesthetic: bool = Tru
         "demonstrated_depth_mm": float(depth[mask].max() * 1e3),
         "replay": score,
         "replay_travel_mm": float(info["max_surface_travel"]) * 1e3,
+        "success_depth_mm": scene.success_depth * 1e3,
         "replay_coverage": float(info["coverage"]),
+        "coverage_goal": scene.coverage_goal,
     }
     return TwinBuild(scene, report)
 
