@@ -43,6 +43,7 @@ STIFFNESS_RANGE = (50.0, 50000.0)  # N/m
 CALIBRATION_ROUNDS = 4
 MIN_SUCCESS_DEPTH = 0.0005  # m: a press must move the button at least this much
 MIN_COVERAGE = 0.1  # a wipe must cover at least this share of the demonstrated path
+MAX_TARGET_DEPTH = 0.01  # m: the arm is stiffened so that the recorded peak needs no deeper target
 
 
 @dataclass(frozen=True)
@@ -333,6 +334,17 @@ def _calibrate(env: TwinEnv, scene: TwinScene, rec: Recording, force: np.ndarray
     return scene, _score(sim @ normal, wanted), info
 
 
+def _arm_stiffness(peak: float) -> float:
+    """The twin's translational impedance stiffness (N/m; 0: the robot's) for a recorded peak
+    reaction ``peak`` N: a replayed target presses with ``K x`` at ``x`` below the surface, so the
+    surface is raised ``peak / K`` above the recorded touch-down, into the path of the approach when
+    ``K`` is soft; stiffer (closer to the position-controlled arm that recorded) when that exceeds
+    ``MAX_TARGET_DEPTH``. Only for kinesthetic recordings: elsewhere the recorded actions are the
+    targets of the robot's own impedance."""
+    default = float(np.mean(get_robot("ur5e").impedance.stiffness_pos))
+    return peak / MAX_TARGET_DEPTH if peak / default > MAX_TARGET_DEPTH else 0.0
+
+
 def _press_depth(scene: TwinScene, reached: float, hold: float) -> float:
     """Travel (m) that counts as a press: what the force the demonstration held the button with
     (``hold`` N, the median reaction inside the contact; its peak is the touch-down's impact) moves
@@ -351,7 +363,11 @@ def build_twin(dataset: str | Path, episode: int = 0, *, kinesthetic: bool = Tru
     offset, quat, residual = fit_tool_offset(rec.joints, rec.pose)
     kind = "press" if surface.kind == "approach" else "wipe"
     touch = int(np.argmax(mask))
-    start = replace(_provisional(rec, offset, quat, kind), damping_qpos=tuple(rec.joints[touch]))
+    start = replace(
+        _provisional(rec, offset, quat, kind),
+        damping_qpos=tuple(rec.joints[touch]),
+        arm_stiffness=_arm_stiffness(float(force[mask].max())) if kinesthetic else 0.0,
+    )
     env = TwinEnv(twin=start, render_mode=None)
     try:
         scene, depth, lift = _geometry(env, env.twin, rec, surface, mask, force)
