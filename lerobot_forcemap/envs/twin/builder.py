@@ -4,15 +4,17 @@
    forward kinematics of the scene's UR5e at the recorded joints against the recorded tool pose;
    the residual (mm) says how well the scene's arm matches the recorded one;
 2. contact: the strongest contact of ``contact.estimate_reaction`` (its surface normal and touch-down);
-   an "approach" contact is a press (a button), a sliding one a wipe (a board fitted to the contact
-   path);
+   an "approach" contact is a press (a button along the recorded tool axis, centred under the
+   simulated gripper's tip, ``_tool_tip``), a sliding one a wipe (a board fitted to the contact path);
+   a kinesthetic recording's twin gets a stiffer arm when its peak needs it (``_arm_stiffness``);
 3. spring: reaction along the normal against depth below the touch-down level, ``F = preload +
    k depth``, least squares over the press-in (depths below 75 % of the deepest: the stop is at the
    deepest); the surface is put where the simulated tool touches it at touch-down, raised when a
    replay without it does not reach the depth that presses it with the recorded peak (``_replay_lift``);
 4. stiffness: replays of the recorded actions in the twin scale ``k`` until the replay's peak reaction
    along the normal matches the recording's (not when the replay reaches the stop: then the stop, not
-   ``k``, sets the peak); the last replay gives the correlation and peak error.
+   ``k``, sets the peak); the last replay gives the correlation and peak error and sets what counts
+   as success (``_press_depth``).
 """
 
 from __future__ import annotations
