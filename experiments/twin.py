@@ -141,14 +141,16 @@ def render(rows: list[dict]) -> str:
         "-100 % next to a failed reproduction means that it never touched the surface: a failure, not a",
         "force reduction. A button sits under the simulated gripper's pad where the recording touched down,",
         "raised so that the *replay* presses it with the recorded peak (an impedance-controlled arm lags",
-        "the fast recorded motion; see docs/envs.md). The reproduction steps its skill at the twin's 20 Hz.",
+        "the fast recorded motion; see docs/envs.md), the arm stiffened so that this needs at most 10 mm.",
+        "Replay correlation: against the recorded reaction through the twin's 10 Hz force low-pass.",
+        "The reproduction steps its skill at the twin's 20 Hz.",
         "A press succeeds at the travel of the force the demonstration held the button with (at least",
         "0.5 mm); a wipe at 90 % of the path coverage the replay reaches. Reached: the button's travel",
         "(press) or the path coverage (wipe) of the replay, of the reproduction and what success needs.",
         "",
         "## Twin calibration",
         "",
-        "| recording | kind | tool residual rms / max (mm) | stiffness (N/m) | replay corr. | peak: replay / recorded (N) |",
+        "| recording | kind | tool residual rms / max (mm) | stiffness: surface / arm (N/m) | replay corr. | peak: replay / recorded (N) |",
         "|---|---|---|---|---|---|",
     ]
     for r in rows:
@@ -156,7 +158,7 @@ def render(rows: list[dict]) -> str:
         p = t["replay"]
         lines.append(
             f"| {r['recording']} | {t['kind']} | {t['tcp_residual_rms_mm']:.2f} / {t['tcp_residual_max_mm']:.2f} "
-            f"| {t['stiffness_n_per_m']:.0f} | {p['correlation']:.2f} | {p['peak_sim_n']:.1f} / {p['peak_recorded_n']:.1f} |"
+            f"| {t['stiffness_n_per_m']:.0f} / {t['arm_stiffness_n_per_m']:.0f} | {p['correlation']:.2f} | {p['peak_sim_n']:.1f} / {p['peak_recorded_n']:.1f} |"
         )
     lines += [
         "",

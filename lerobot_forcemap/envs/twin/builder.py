@@ -379,6 +379,7 @@ def build_twin(dataset: str | Path, episode: int = 0, *, kinesthetic: bool = Tru
     try:
         scene, depth, lift = _geometry(env, env.twin, rec, surface, mask, force)
         scene, score, info = _calibrate(env, scene, rec, force, np.asarray(surface.normal, float))
+        arm = float(np.mean(env.gains.stiffness_pos))
     finally:
         env.close()
     reached = float(info["max_surface_travel"]) if kind == "press" else float(info["coverage"])
@@ -399,6 +400,7 @@ def build_twin(dataset: str | Path, episode: int = 0, *, kinesthetic: bool = Tru
         "surface_pos": list(scene.surface_pos),
         "surface_lift_mm": lift * 1e3,
         "stiffness_n_per_m": scene.stiffness,
+        "arm_stiffness_n_per_m": arm,
         "preload_n": scene.preload,
         "demonstrated_depth_mm": float(depth[mask].max() * 1e3),
         "replay": score,
