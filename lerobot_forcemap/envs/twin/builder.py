@@ -44,6 +44,7 @@ CONTROL_HZ = 20.0
 MARGIN = 0.15  # m, workspace beyond the recorded path
 STIFFNESS_RANGE = (50.0, 50000.0)  # N/m
 CALIBRATION_ROUNDS = 4
+BUTTON_RADIUS = 0.018  # m
 MIN_SUCCESS_DEPTH = 0.0005  # m: a press must move the button at least this much
 MIN_COVERAGE = 0.1  # a wipe must cover at least this share of the demonstrated path
 MAX_TARGET_DEPTH = 0.01  # m: the arm is stiffened so that the recorded peak needs no deeper target
@@ -114,22 +115,23 @@ def _tcp_positions(env: TwinEnv, joints: np.ndarray) -> np.ndarray:
 
 def _tool_tip(env: TwinEnv, joints: np.ndarray, gripper: float, normal: np.ndarray) -> np.ndarray:
     """Where the simulated robot at ``joints`` (gripper closure ``gripper``) first meets a surface
-    whose outward normal is ``normal`` (base frame): the centre of the lowest face along ``-normal``
-    of its lowest collision geom (bounding-box corners within 1 mm of the lowest). An open gripper's
-    tip is a finger pad, not its TCP (which lies in the gap between the fingers)."""
+    whose outward normal is ``normal`` (base frame): the centre of the gripper's collision-geom
+    bounding-box corners within 1 mm of the lowest along ``-normal`` and within a button's diameter
+    of it. An open gripper's tip is one finger pad, not its TCP (which lies in the gap between the
+    pads); a closed one's is both pads together."""
     m, d, ix = env.model, env._scratch, env.index
     d.qpos[ix.arm_qpos] = joints
     d.qpos[ix.gripper_qpos] = env.robot.gripper.closure_qpos(gripper)
     mujoco.mj_kinematics(m, d)
     signs = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], float)
-    best, best_h = None, np.inf
-    for g in _tool_geoms(m, int(m.site_bodyid[ix.tcp_site])):
-        local = m.geom_aabb[g, :3] + signs * m.geom_aabb[g, 3:]
-        corners = env.frame.pos_to_base(d.geom_xpos[g] + local @ d.geom_xmat[g].reshape(3, 3).T)
-        h = corners @ normal
-        if h.min() < best_h:
-            best, best_h = corners[h <= h.min() + 1e-3].mean(axis=0), float(h.min())
-    return best
+    geoms = _tool_geoms(m, int(m.site_bodyid[ix.tcp_site]))
+    local = m.geom_aabb[geoms, None, :3] + signs * m.geom_aabb[geoms, None, 3:]  # (G, 8, 3)
+    world = d.geom_xpos[geoms, None] + np.einsum("gij,gkj->gki", d.geom_xmat[geoms].reshape(-1, 3, 3), local)
+    corners = env.frame.pos_to_base(world.reshape(-1, 3))
+    h = corners @ normal
+    low = corners[np.argmin(h)]
+    near = (h <= h.min() + 1e-3) & (np.linalg.norm(corners - low, axis=1) <= 2 * BUTTON_RADIUS)
+    return corners[near].mean(axis=0)
 
 
 def _tool_geoms(m: mujoco.MjModel, tool_body: int) -> list[int]:
@@ -239,7 +241,8 @@ def _geometry(env: TwinEnv, scene: TwinScene, rec: Recording, surface, mask: np.
     k, preload, stop = _fit_spring(depth[mask], force[mask])
     inside = tcp[mask]
     if scene.kind == "press":
-        centre, half, along = _tool_tip(env, rec.joints[td], scene.gripper, n), (0.018, 0.018), None
+        tip = _tool_tip(env, rec.joints[td], scene.gripper, n)
+        centre, half, along = tip, (BUTTON_RADIUS, BUTTON_RADIUS), None
         path = ()
     else:
         flat = inside - np.outer((inside - inside.mean(0)) @ n, n)
