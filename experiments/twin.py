@@ -76,7 +76,9 @@ def _replay_actor(actions: np.ndarray):
     return reset, act
 
 
-def _policy_actor(dataset: Path, ckpt: Path, task: str):
+def _policy_actor(dataset: Path, ckpt: Path, task: str, control_hz: float):
+    """The forcemap policy fitted one-shot on ``dataset``, stepping its skill at the twin's control rate
+    (the recording's 50 fps would stretch its timing 2.5 times in the 20 Hz twin)."""
     from lerobot_forcemap.cli.fit import fit_policy
     from lerobot_forcemap.evaluation.evaluate import lerobot_actor, load_policy
 
@@ -84,6 +86,7 @@ def _policy_actor(dataset: Path, ckpt: Path, task: str):
         shutil.rmtree(ckpt, ignore_errors=True)
         fit_policy(dataset, ckpt, episodes=[0])
     policy, pre, post = load_policy(ckpt)
+    policy.config.control_fps = control_hz
     return lerobot_actor(policy, pre, post, task)
 
 
@@ -96,7 +99,10 @@ def run_one(name: str, h5: Path, workdir: Path) -> dict:
     env = make_twin(build.scene, render_mode=None)
     try:
         demo = _run(env, _replay_actor(replay_actions(read_recording(dataset, 0))))
-        repro = _run(env, _policy_actor(dataset, workdir / "checkpoints" / name, build.scene.task))
+        actor = _policy_actor(
+            dataset, workdir / "checkpoints" / name, build.scene.task, 1.0 / env.unwrapped.control_dt
+        )
+        repro = _run(env, actor)
     finally:
         env.close()
     change = {
@@ -112,6 +118,14 @@ def _pct(x: float) -> str:
     return "n/a" if not np.isfinite(x) else f"{x:+.1f} %"
 
 
+def _reached(row: dict) -> str:
+    """Press: the button's travel (mm); wipe: the share of the demonstrated path covered."""
+    d, q, t = row["demo"], row["repro"], row["twin"]
+    if t["kind"] == "press":
+        return f"{d['travel_mm']:.2f} / {q['travel_mm']:.2f} / {t['success_depth_mm']:.2f} mm"
+    return f"{d['coverage']:.2f} / {q['coverage']:.2f} / {t['coverage_goal']:.2f}"
+
+
 def render(rows: list[dict]) -> str:
     """The markdown page."""
     lines = [
@@ -125,13 +139,18 @@ def render(rows: list[dict]) -> str:
         "forcemap policy fitted one-shot from the same recording (package defaults) is run. Forces are the",
         "twin's contact force (N, physics rate, 10 Hz low-pass; mean over the whole episode). A change of",
         "-100 % next to a failed reproduction means that it never touched the surface: a failure, not a",
-        "force reduction. The twins' surfaces are placed and stiffened so that the *replay* presses them",
-        "(an impedance-controlled arm lags the fast recorded motion; see docs/envs.md), so a reproduction",
-        "that smooths the approach can stay above them.",
+        "force reduction. A button sits under the simulated gripper's pad where the recording touched down,",
+        "raised so that the *replay* presses it with the recorded peak (an impedance-controlled arm lags",
+        "the fast recorded motion; see docs/envs.md), the arm stiffened so that this needs at most 10 mm.",
+        "Replay correlation: against the recorded reaction through the twin's 10 Hz force low-pass.",
+        "The reproduction steps its skill at the twin's 20 Hz.",
+        "A press succeeds at the travel of the force the demonstration held the button with (at least",
+        "0.5 mm); a wipe at 90 % of the path coverage the replay reaches. Reached: the button's travel",
+        "(press) or the path coverage (wipe) of the replay, of the reproduction and what success needs.",
         "",
         "## Twin calibration",
         "",
-        "| recording | kind | tool residual rms / max (mm) | stiffness (N/m) | replay corr. | peak: replay / recorded (N) |",
+        "| recording | kind | tool residual rms / max (mm) | stiffness: surface / arm (N/m) | replay corr. | peak: replay / recorded (N) |",
         "|---|---|---|---|---|---|",
     ]
     for r in rows:
@@ -139,21 +158,21 @@ def render(rows: list[dict]) -> str:
         p = t["replay"]
         lines.append(
             f"| {r['recording']} | {t['kind']} | {t['tcp_residual_rms_mm']:.2f} / {t['tcp_residual_max_mm']:.2f} "
-            f"| {t['stiffness_n_per_m']:.0f} | {p['correlation']:.2f} | {p['peak_sim_n']:.1f} / {p['peak_recorded_n']:.1f} |"
+            f"| {t['stiffness_n_per_m']:.0f} / {t['arm_stiffness_n_per_m']:.0f} | {p['correlation']:.2f} | {p['peak_sim_n']:.1f} / {p['peak_recorded_n']:.1f} |"
         )
     lines += [
         "",
         "## Demonstration replay against the forcemap reproduction",
         "",
-        "| recording | kind | success demo / repro | max F demo / repro (N) | change | mean F demo / repro (N) | change |",
-        "|---|---|---|---|---|---|---|",
+        "| recording | kind | success demo / repro | reached demo / repro / needed | max F demo / repro (N) | change | mean F demo / repro (N) | change |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         d, q, c = r["demo"], r["repro"], r["change_pct"]
         lines.append(
             f"| {r['recording']} | {r['twin']['kind']} | {'yes' if d['success'] else 'no'} / "
-            f"{'yes' if q['success'] else 'no'} | {d['max_force_n']:.1f} / {q['max_force_n']:.1f} | {_pct(c['max'])} "
-            f"| {d['mean_force_n']:.2f} / {q['mean_force_n']:.2f} | {_pct(c['mean'])} |"
+            f"{'yes' if q['success'] else 'no'} | {_reached(r)} | {d['max_force_n']:.1f} / {q['max_force_n']:.1f} "
+            f"| {_pct(c['max'])} | {d['mean_force_n']:.2f} / {q['mean_force_n']:.2f} | {_pct(c['mean'])} |"
         )
     lines += ["", "## Against the paper's Table II (real robot, demonstrations against reproductions)", ""]
     lines += [

@@ -19,7 +19,7 @@ environment_state: the rest surface's centre pose (7), the travel (m), the wipe 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
 import mujoco
@@ -62,7 +62,8 @@ class TwinScene:
     ``stiffness`` N/m; ``preload`` N; ``stop_depth`` m; ``success_depth`` m (press); ``path (P, 3)``
     base frame (wipe); ``coverage_goal``; ``workspace_low/high (3,)`` base frame m; ``max_steps``;
     ``damping_qpos (6,)``: the joints the impedance damping is computed at (the contact's; empty: the
-    start's; a recording may start near a singularity, whose inertia would overdamp the whole episode).
+    start's; a recording may start near a singularity, whose inertia would overdamp the whole episode);
+    ``arm_stiffness`` N/m: the impedance controller's translational stiffness (0: the robot's).
     """
 
     kind: str
@@ -82,6 +83,7 @@ class TwinScene:
     path: tuple[tuple[float, float, float], ...] = ()
     coverage_goal: float = 0.9
     damping_qpos: tuple[float, ...] = ()
+    arm_stiffness: float = 0.0
     name: str = ""
     task: str = SPEC.description
     extra: dict = field(default_factory=dict, compare=False)
@@ -135,6 +137,10 @@ class TwinTask(ForceTask):
     def __init__(self, robot, *, randomize: bool = True):
         super().__init__(robot, randomize=randomize)
         self.workspace = Workspace(low=self.twin.workspace_low, high=self.twin.workspace_high)
+
+    def gains(self):
+        k = self.twin.arm_stiffness
+        return replace(self.robot.impedance, stiffness_pos=(k, k, k)) if k > 0 else self.robot.impedance
 
     def scene_config(self) -> SceneConfig:
         """The base raised above the table (poses stay in the base frame)."""

@@ -4,15 +4,17 @@
    forward kinematics of the scene's UR5e at the recorded joints against the recorded tool pose;
    the residual (mm) says how well the scene's arm matches the recorded one;
 2. contact: the strongest contact of ``contact.estimate_reaction`` (its surface normal and touch-down);
-   an "approach" contact is a press (a button), a sliding one a wipe (a board fitted to the contact
-   path);
+   an "approach" contact is a press (a button along the recorded tool axis, centred under the
+   simulated gripper's tip, ``_tool_tip``), a sliding one a wipe (a board fitted to the contact path);
+   a kinesthetic recording's twin gets a stiffer arm when its peak needs it (``_arm_stiffness``);
 3. spring: reaction along the normal against depth below the touch-down level, ``F = preload +
    k depth``, least squares over the press-in (depths below 75 % of the deepest: the stop is at the
    deepest); the surface is put where the simulated tool touches it at touch-down, raised when a
    replay without it does not reach the depth that presses it with the recorded peak (``_replay_lift``);
 4. stiffness: replays of the recorded actions in the twin scale ``k`` until the replay's peak reaction
    along the normal matches the recording's (not when the replay reaches the stop: then the stop, not
-   ``k``, sets the peak); the last replay gives the correlation and peak error.
+   ``k``, sets the peak); the last replay gives the correlation and peak error and sets what counts
+   as success (``_press_depth``).
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from ...data.staging import partial_dir, replace_dir
 from ...geometry import matrix_to_quat, quat_to_matrix, slerp_sequence
 from ..robots import get_robot
 from ..rollout import run_episode
+from ..sensing import LowPass
 from ..tasks.twin import TwinEnv, TwinScene
 from .recording import Recording, read_recording
 
@@ -41,9 +44,10 @@ CONTROL_HZ = 20.0
 MARGIN = 0.15  # m, workspace beyond the recorded path
 STIFFNESS_RANGE = (50.0, 50000.0)  # N/m
 CALIBRATION_ROUNDS = 4
+BUTTON_RADIUS = 0.018  # m
 MIN_SUCCESS_DEPTH = 0.0005  # m: a press must move the button at least this much
 MIN_COVERAGE = 0.1  # a wipe must cover at least this share of the demonstrated path
-PRESS_TRAVEL = 0.003  # m: a press that travelled more shows the button's axis
+MAX_TARGET_DEPTH = 0.01  # m: the arm is stiffened so that the recorded peak needs no deeper target
 
 
 @dataclass(frozen=True)
@@ -109,6 +113,39 @@ def _tcp_positions(env: TwinEnv, joints: np.ndarray) -> np.ndarray:
     return out
 
 
+def _tool_tip(env: TwinEnv, joints: np.ndarray, gripper: float, normal: np.ndarray) -> np.ndarray:
+    """Where the simulated robot at ``joints`` (gripper closure ``gripper``) first meets a surface
+    whose outward normal is ``normal`` (base frame): the centre of the gripper's collision-geom
+    bounding-box corners within 1 mm of the lowest along ``-normal`` and within a button's diameter
+    of it. An open gripper's tip is one finger pad, not its TCP (which lies in the gap between the
+    pads); a closed one's is both pads together."""
+    m, d, ix = env.model, env._scratch, env.index
+    d.qpos[ix.arm_qpos] = joints
+    d.qpos[ix.gripper_qpos] = env.robot.gripper.closure_qpos(gripper)
+    mujoco.mj_kinematics(m, d)
+    signs = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], float)
+    geoms = _tool_geoms(m, int(m.site_bodyid[ix.tcp_site]))
+    local = m.geom_aabb[geoms, None, :3] + signs * m.geom_aabb[geoms, None, 3:]  # (G, 8, 3)
+    world = d.geom_xpos[geoms, None] + np.einsum("gij,gkj->gki", d.geom_xmat[geoms].reshape(-1, 3, 3), local)
+    corners = env.frame.pos_to_base(world.reshape(-1, 3))
+    h = corners @ normal
+    low = corners[np.argmin(h)]
+    near = (h <= h.min() + 1e-3) & (np.linalg.norm(corners - low, axis=1) <= 2 * BUTTON_RADIUS)
+    return corners[near].mean(axis=0)
+
+
+def _tool_geoms(m: mujoco.MjModel, tool_body: int) -> list[int]:
+    """The collision geoms of ``tool_body`` and the bodies below it (the gripper on the flange)."""
+    out = []
+    for g in range(m.ngeom):
+        b = int(m.geom_bodyid[g])
+        while b not in (0, tool_body):
+            b = int(m.body_parentid[b])
+        if b == tool_body and m.geom_contype[g] & 2:
+            out.append(g)
+    return out
+
+
 def _surface_frame(normal: np.ndarray, along: np.ndarray | None = None) -> np.ndarray:
     """Quaternion of a frame whose z is ``normal`` (x along ``along`` projected on the plane)."""
     z = normal / np.linalg.norm(normal)
@@ -133,14 +170,11 @@ def _contact(rec: Recording, kinesthetic: bool):
     return est.surfaces[best], masks[best], normal_force[best]
 
 
-def _normal(inside: np.ndarray, normal: np.ndarray) -> np.ndarray:
-    """A press's normal: its travel direction inside the contact when it travelled more than
-    ``PRESS_TRAVEL`` (the button's axis), else the contact's ``normal`` (a tap on a stiff button)."""
-    centred = inside - inside.mean(axis=0)
-    axis = np.linalg.svd(centred, full_matrices=False)[2][0]
-    if np.ptp(centred @ axis) <= PRESS_TRAVEL:
-        return normal
-    return axis if axis @ normal >= 0 else -axis
+def _tool_axis(quat: np.ndarray) -> np.ndarray:
+    """A press's normal: against the recorded tool's z axis (the tool points into the button). The
+    reaction's direction and the path inside the contact also carry the hand's push in kinesthetic
+    recordings."""
+    return -quat_to_matrix(quat)[:, 2]
 
 
 def _fit_spring(depth: np.ndarray, force: np.ndarray) -> tuple[float, float, float]:
@@ -200,18 +234,15 @@ def _provisional(rec: Recording, offset: np.ndarray, quat: np.ndarray, kind: str
 def _geometry(env: TwinEnv, scene: TwinScene, rec: Recording, surface, mask: np.ndarray, force: np.ndarray):
     """The surface's placement, size, spring and workspace from the contact (see the module docstring)."""
     tcp = _tcp_positions(env, rec.joints)
-    n = (
-        _normal(rec.pose[mask, :3], np.asarray(surface.normal, float))
-        if scene.kind == "press"
-        else surface.normal
-    )
-    s = rec.pose[:, :3] @ n
     td = int(np.argmax(mask))
+    n = _tool_axis(rec.pose[td, 3:7]) if scene.kind == "press" else np.asarray(surface.normal, float)
+    s = rec.pose[:, :3] @ n
     depth = s[td] - s
     k, preload, stop = _fit_spring(depth[mask], force[mask])
     inside = tcp[mask]
     if scene.kind == "press":
-        centre, half, along = tcp[td], (0.018, 0.018), None
+        tip = _tool_tip(env, rec.joints[td], scene.gripper, n)
+        centre, half, along = tip, (BUTTON_RADIUS, BUTTON_RADIUS), None
         path = ()
     else:
         flat = inside - np.outer((inside - inside.mean(0)) @ n, n)
@@ -233,7 +264,7 @@ def _geometry(env: TwinEnv, scene: TwinScene, rec: Recording, surface, mask: np.
     window = (rec.times[mask][0] - 0.5, rec.times[mask][-1] + 0.5)
     lift, deepest_tcp = _replay_lift(env, scene, rec, n, s[td], float(force[mask].max()), window)
     if lift > 0 and scene.kind == "press":  # where the lagging replay comes down, not the recorded point
-        off = deepest_tcp - pos
+        off = deepest_tcp - tcp[td]
         pos = pos + off - (off @ n) * n
     return replace(scene, surface_pos=tuple(float(x) for x in pos + lift * n)), depth, lift
 
@@ -275,9 +306,10 @@ def _replay_lift(
     return max(0.0, float(rows[i, 3:] @ n) + peak / stiffness - touch), rows[i, :3]
 
 
-def _score(sim: np.ndarray, recorded: np.ndarray) -> dict:
-    """Correlation and peak error of the replay's normal reaction against the recording's."""
-    corr = float(np.corrcoef(sim, recorded)[0, 1]) if np.std(sim) > 0 and np.std(recorded) > 0 else 0.0
+def _score(sim: np.ndarray, recorded: np.ndarray, seen: np.ndarray) -> dict:
+    """Correlation and peak error of the replay's normal reaction ``sim`` against the recording's
+    (``recorded``; ``seen``: through the twin's force low-pass, what the correlation compares)."""
+    corr = float(np.corrcoef(sim, seen)[0, 1]) if np.std(sim) > 0 and np.std(seen) > 0 else 0.0
     return {
         "correlation": corr,
         "peak_sim_n": float(sim.max()),
@@ -306,7 +338,30 @@ def _calibrate(env: TwinEnv, scene: TwinScene, rec: Recording, force: np.ndarray
         scene = replace(scene, stiffness=float(np.clip(scene.stiffness * ratio, *STIFFNESS_RANGE)))
     env.task_impl.twin = scene
     sim, info = replay(env, actions)
-    return scene, _score(sim @ normal, wanted), info
+    # the twin's contact force is low-passed at the physics rate: a touch-down's impact of a few
+    # recorded frames is compared as the twin's filter would show it
+    seen = LowPass(env.force_cutoff_hz, 1.0 / rec.fps, 1)(force[:, None])[:, 0]
+    return scene, _score(sim @ normal, wanted, np.interp(t, rec.times, seen)), info
+
+
+def _arm_stiffness(peak: float) -> float:
+    """The twin's translational impedance stiffness (N/m; 0: the robot's) for a recorded peak
+    reaction ``peak`` N: a replayed target presses with ``K x`` at ``x`` below the surface, so the
+    surface is raised ``peak / K`` above the recorded touch-down, into the path of the approach when
+    ``K`` is soft; stiffer (closer to the position-controlled arm that recorded) when that exceeds
+    ``MAX_TARGET_DEPTH``. Only for kinesthetic recordings: elsewhere the recorded actions are the
+    targets of the robot's own impedance."""
+    default = float(np.mean(get_robot("ur5e").impedance.stiffness_pos))
+    return peak / MAX_TARGET_DEPTH if peak / default > MAX_TARGET_DEPTH else 0.0
+
+
+def _press_depth(scene: TwinScene, reached: float, hold: float) -> float:
+    """Travel (m) that counts as a press: what the force the demonstration held the button with
+    (``hold`` N, the median reaction inside the contact; its peak is the touch-down's impact) moves
+    the fitted spring, at least ``MIN_SUCCESS_DEPTH``, at most 90 % of the replay's travel
+    ``reached`` (the replay of the demonstration succeeds) unless that is below the minimum."""
+    held = (hold - scene.preload) / scene.stiffness
+    return min(max(held, MIN_SUCCESS_DEPTH), max(0.9 * reached, MIN_SUCCESS_DEPTH))
 
 
 def build_twin(dataset: str | Path, episode: int = 0, *, kinesthetic: bool = True) -> TwinBuild:
@@ -318,17 +373,22 @@ def build_twin(dataset: str | Path, episode: int = 0, *, kinesthetic: bool = Tru
     offset, quat, residual = fit_tool_offset(rec.joints, rec.pose)
     kind = "press" if surface.kind == "approach" else "wipe"
     touch = int(np.argmax(mask))
-    start = replace(_provisional(rec, offset, quat, kind), damping_qpos=tuple(rec.joints[touch]))
+    start = replace(
+        _provisional(rec, offset, quat, kind),
+        damping_qpos=tuple(rec.joints[touch]),
+        arm_stiffness=_arm_stiffness(float(force[mask].max())) if kinesthetic else 0.0,
+    )
     env = TwinEnv(twin=start, render_mode=None)
     try:
         scene, depth, lift = _geometry(env, env.twin, rec, surface, mask, force)
         scene, score, info = _calibrate(env, scene, rec, force, np.asarray(surface.normal, float))
+        arm = float(np.mean(env.gains.stiffness_pos))
     finally:
         env.close()
     reached = float(info["max_surface_travel"]) if kind == "press" else float(info["coverage"])
     scene = replace(
         scene,
-        success_depth=max(0.9 * reached, MIN_SUCCESS_DEPTH),
+        success_depth=_press_depth(scene, reached, float(np.median(force[mask]))),
         coverage_goal=max(0.9 * reached, MIN_COVERAGE) if kind == "wipe" else 0.9,
     )
     report = {
@@ -343,11 +403,14 @@ def build_twin(dataset: str | Path, episode: int = 0, *, kinesthetic: bool = Tru
         "surface_pos": list(scene.surface_pos),
         "surface_lift_mm": lift * 1e3,
         "stiffness_n_per_m": scene.stiffness,
+        "arm_stiffness_n_per_m": arm,
         "preload_n": scene.preload,
         "demonstrated_depth_mm": float(depth[mask].max() * 1e3),
         "replay": score,
         "replay_travel_mm": float(info["max_surface_travel"]) * 1e3,
+        "success_depth_mm": scene.success_depth * 1e3,
         "replay_coverage": float(info["coverage"]),
+        "coverage_goal": scene.coverage_goal,
     }
     return TwinBuild(scene, report)
 
