@@ -262,8 +262,9 @@ def _free_path(x: np.ndarray) -> EpisodeArrays:
     )
 
 
-def _arm_fit(x: np.ndarray, tolerance: float | None):
-    _, report = fit_skill([_free_path(x)], params(segments="none", path_tolerance_m=tolerance), FPS)
+def _arm_fit(x: np.ndarray, tolerance: float | None, *more: np.ndarray):
+    episodes = [_free_path(p) for p in (x, *more)]
+    _, report = fit_skill(episodes, params(segments="none", path_tolerance_m=tolerance), FPS)
     return report.arm_fits[0]
 
 
@@ -277,7 +278,7 @@ def test_a_sharp_corner_gets_more_nodes_until_the_map_meets_the_path_tolerance()
     refined = _arm_fit(corner, 0.005)
     assert 21 < refined.n_nodes <= 1 + NODE_REFINEMENTS[-1] * 20
     assert polyline_distances(inner, refined.nodes[:, :3]).max() <= 0.005
-    # a tolerance no count meets: bounded by the last refinement, the closest fit kept
+    # a tolerance no count meets: bounded by the last refinement
     assert _arm_fit(corner, 0.0005).n_nodes == 1 + NODE_REFINEMENTS[-1] * 20
 
 
@@ -296,3 +297,15 @@ def test_the_force_points_lift_is_no_path_error():
     lifted, _, _ = _fit([ep], stiffness=0.8 * K_DEMO, path_tolerance_m=0.001)
     plain, _, _ = _fit([ep], stiffness=0.8 * K_DEMO, path_tolerance_m=None)
     assert [len(s.nodes) for s in lifted.segments] == [len(s.nodes) for s in plain.segments]
+
+
+def test_demonstrations_apart_keep_the_first_fit():
+    """Two demonstrations 12 mm apart: the map runs between them, 6 mm from each, and more nodes do not
+    bring it closer, so the refits are dropped."""
+    s = np.arange(0.0, 2.0 + 1e-9, 1.0 / FPS)
+    arc = np.column_stack([0.4 + 0.3 * np.cos(0.5 * s), 0.3 * np.sin(0.5 * s), 0.2 + 0 * s])
+    lower, upper = arc - [0.0, 0.0, 0.006], arc + [0.0, 0.0, 0.006]
+    plain, checked = _arm_fit(lower, None, upper), _arm_fit(lower, 0.004, upper)
+    assert polyline_distances(lower[10:-10], plain.nodes[:, :3]).max() > 0.005
+    assert checked.n_nodes == plain.n_nodes
+    np.testing.assert_array_equal(checked.nodes, plain.nodes)
