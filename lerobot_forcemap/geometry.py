@@ -1,4 +1,5 @@
-"""Quaternion and rotation helpers, vectorised over leading axes (pure NumPy, floor 1).
+"""Quaternion and rotation helpers, vectorised over leading axes, and the distance of points to a
+polyline (pure NumPy, floor 1).
 
 Convention everywhere in the project: unit quaternions scalar first, ``q = (w, x, y, z)``
 (MuJoCo's order). The lab recorder stores ``(x, y, z, w)``: convert with :func:`xyzw_to_wxyz`.
@@ -32,6 +33,7 @@ __all__ = [
     "quat_canonical_sequence",
     "slerp",
     "slerp_sequence",
+    "polyline_distances",
 ]
 
 
@@ -224,3 +226,23 @@ def slerp_sequence(times: ArrayLike, quats: ArrayLike, query: ArrayLike) -> NDAr
     span = times[hi] - times[lo]
     frac = np.where(span > 0, (q - times[lo]) / np.where(span > 0, span, 1.0), 0.0)
     return slerp(quats[lo], quats[hi], frac)
+
+
+def polyline_distances(points: ArrayLike, polyline: ArrayLike, chunk: int = 256) -> NDArray[np.float64]:
+    """Distance of each point ``(N, d)`` to the polyline through ``polyline (M, d)`` (M >= 1): ``(N,)``.
+
+    Vectorised over the polyline's segments, ``chunk`` points at a time (memory ``chunk × M × d``).
+    """
+    points = np.asarray(points, dtype=float)
+    a = np.asarray(polyline, dtype=float)
+    b = a[1:] if len(a) > 1 else a
+    a = a[:-1] if len(a) > 1 else a
+    ab = b - a
+    length2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-30)
+    out = np.empty(len(points))
+    for i in range(0, len(points), chunk):
+        p = points[i : i + chunk, None, :]
+        u = np.clip(np.einsum("pmj,mj->pm", p - a[None], ab) / length2[None], 0.0, 1.0)
+        nearest = a[None] + u[..., None] * ab[None]
+        out[i : i + chunk] = np.sqrt(np.min(np.sum((p - nearest) ** 2, axis=2), axis=1))
+    return out

@@ -128,8 +128,8 @@ class ForceMapConfig(PreTrainedConfig):
             (``skill.params.Segmentation``; windows in seconds, ``segmentation.DEFAULT_TIMING``, the
             defaults of ``forcemap segment`` too). The ``touch_down`` / ``lift_off`` streams run on
             datasets with a ``contact`` column.
-        n_nodes, nodes_per_second, min_nodes, lam, mu, delta, f_contact, stiffness, rho_max,
-            force_limit, time_scale, max_iter: the arm maps (``skill.params.ArmMap``). stiffness k
+        n_nodes, nodes_per_second, min_nodes, path_tolerance_m, lam, mu, delta, f_contact, stiffness,
+            rho_max, force_limit, time_scale, max_iter: the arm maps (``skill.params.ArmMap``). stiffness k
             (N/m): a node in steady contact with force F is lifted by F/k; reproduced with a compliant
             controller of stiffness K this leaves a force F·(1 − K/k) (k = K removes it, k → ∞ none).
             Used when ``stiffness_from_demo`` is None (or the demonstration cannot tell its stiffness).
@@ -203,6 +203,7 @@ class ForceMapConfig(PreTrainedConfig):
     n_nodes: int | None = _ARM.n_nodes
     nodes_per_second: float = _ARM.nodes_per_second
     min_nodes: int = _ARM.min_nodes
+    path_tolerance_m: float | None = _ARM.path_tolerance_m
     lam: float = _ARM.lam
     mu: float = _ARM.mu
     delta: float = _ARM.delta

@@ -60,3 +60,14 @@ def test_zero_quaternion_rejected():
         ValueError, match=r"^q: must hold quaternions of norm >= 1e-12, got a \(near\) zero norm"
     ):
         g.quat_normalize([0, 0, 0, 0])
+
+
+def test_polyline_distances_to_segments_ends_and_a_single_point():
+    path = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]])
+    points = np.array([[0.5, 0.2, 0.0], [-0.3, 0.0, 0.4], [1.2, 0.5, 0.0], [0.5, 0.5, 0.0]])
+    expected = [0.2, 0.5, 0.2, 0.5]
+    np.testing.assert_allclose(g.polyline_distances(points, path), expected, atol=1e-12)
+    # chunks of points give the same answer as one block
+    many = np.random.default_rng(3).uniform(-1, 2, size=(700, 3))
+    np.testing.assert_array_equal(g.polyline_distances(many, path, chunk=7), g.polyline_distances(many, path))
+    np.testing.assert_allclose(g.polyline_distances(points[:1], path[1:2]), [np.hypot(0.5, 0.2)], atol=1e-12)

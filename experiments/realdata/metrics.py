@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lerobot_forcemap.contact import ContactSurface, event_errors, intervals_to_mask, rms_ratio
+from lerobot_forcemap.geometry import polyline_distances
 
 __all__ = [
     "event_errors",
@@ -89,18 +90,9 @@ def largest_step(points: Array) -> float:
     return float(np.max(np.linalg.norm(np.diff(points, axis=0), axis=1))) if len(points) > 1 else 0.0
 
 
-def distance_to_path(points: Array, path: Array, chunk: int = 256) -> Array:
+def distance_to_path(points: Array, path: Array) -> Array:
     """(N,) distance (m) of each point to the polyline ``path (M, 3)``."""
-    a, b = path[:-1], path[1:]
-    ab = b - a
-    length2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-30)
-    out = np.empty(len(points))
-    for i in range(0, len(points), chunk):  # chunks of points against every path segment
-        p = points[i : i + chunk, None, :]
-        u = np.clip(np.einsum("pmj,mj->pm", p - a[None], ab) / length2[None], 0.0, 1.0)
-        nearest = a[None] + u[..., None] * ab[None]
-        out[i : i + chunk] = np.sqrt(np.min(np.sum((p - nearest) ** 2, axis=2), axis=1))
-    return out
+    return polyline_distances(points, path)
 
 
 def lowest_point(

@@ -15,7 +15,9 @@
 3. Fit per segment, in parallel in time (paper §IV-C): the arm map (3-D positions with the wrist
    force points, orientations SLERPed along the time law; space-time with ``time_scale``) and the
    gripper map (closure with the finger force as a reaction pointing towards "open"; space-time with
-   ``gripper_time_scale``, ``gripper_nodes_per_second`` nodes per second).
+   ``gripper_time_scale``, ``gripper_nodes_per_second`` nodes per second). An arm map whose path
+   misses the demonstration outside contact by more than ``path_tolerance_m`` is refitted with more
+   nodes (``NODE_REFINEMENTS``).
 
 Segment s of an episode with changepoints c is frames ``[c_s, c_{s+1}]`` (the boundary frame is
 shared with the next segment); the last segment ends at the last frame. The segments are fitted
@@ -35,6 +37,7 @@ from numpy.typing import NDArray
 from lerobot_forcemap import layout
 from lerobot_forcemap.elmap import ElasticMapFit, fit_force_elastic_map
 from lerobot_forcemap.elmap.timing import node_orientations
+from lerobot_forcemap.geometry import polyline_distances
 from lerobot_forcemap.segmentation import (
     EventStream,
     SegmentationConfig,
@@ -260,6 +263,14 @@ def segment_anchor(
     return choose_anchor(reference, track, static, radius)
 
 
+#: the node counts, as multiples of ``nodes_per_second``'s, a segment's arm map is refitted with (in
+#: this order, while it stays farther than ``path_tolerance_m`` from the demonstration)
+NODE_REFINEMENTS = (1.5, 2.0, 3.0)
+#: the closest refit is kept only if it comes at least this fraction closer to the demonstration than
+#: the first fit (a sharp corner's does: 30 % on the UR5e wipe's approach)
+REFIT_MIN_GAIN = 0.1
+
+
 def _n_nodes(arm: ArmMap, duration: float, n_samples: int) -> int:
     if arm.n_nodes is not None:
         return int(arm.n_nodes)
@@ -423,7 +434,7 @@ def _fit_segment(
     duration = float(np.mean([t[-1] for t in data.ts]))
     n_samples = len(frames[0])
     try:
-        arm = _fit_arm(data, p.arm, _n_nodes(p.arm, duration, n_samples), episodes[0].has_force)
+        arm = _fit_arm_within_tolerance(data, p.arm, duration, n_samples, episodes[0].has_force)
         grip = _fit_gripper(data, p, _n_gripper_nodes(p, fps, duration, n_samples))
     except ValueError as err:
         raise ValueError(f"segment {s} (episodes {[ep.episode for ep in episodes]}): {err}") from err
@@ -455,6 +466,74 @@ def _ends(data: _SegmentData, duration: float) -> SegmentEnds:
             [np.mean([g[0] for g in data.gs], axis=0), np.mean([g[-1] for g in data.gs], axis=0)]
         ),
     )
+
+
+def _fit_arm_within_tolerance(
+    data: _SegmentData, arm: ArmMap, duration: float, n_samples: int, has_force: bool
+) -> ElasticMapFit:
+    """The arm map with ``_n_nodes`` nodes; with ``path_tolerance_m`` (and ``n_nodes`` None) refitted
+    with ``NODE_REFINEMENTS`` times the node density (at most one node per sample) while its path stays
+    farther than the tolerance from a demonstrated sample outside contact (``_free_samples``).
+
+    Nodes spaced evenly in time cut a corner that the demonstration turns within a node spacing; a
+    smooth path keeps its count. A refit that comes no closer ends the search; the closest fit is kept
+    if it is ``REFIT_MIN_GAIN`` closer than the first, else the first is: more nodes do not fix what the
+    map misses there (demonstrations that differ from each other, a contact's effect past the margin)."""
+    n_nodes = _n_nodes(arm, duration, n_samples)
+    fit = _fit_arm(data, arm, n_nodes, has_force)
+    tolerance = arm.path_tolerance_m
+    if tolerance is None or arm.n_nodes is not None:
+        return fit
+    free = _free_samples(data, fit, float(arm.f_contact) if has_force else None)
+    first_error = error = _path_error(free, fit)
+    best = fit
+    for factor in NODE_REFINEMENTS:
+        n = min(int(round(factor * (n_nodes - 1))) + 1, max(n_samples, 3))
+        if error <= tolerance or n <= best.n_nodes:
+            break
+        refit = _fit_arm(data, arm, n, has_force)
+        refit_error = _path_error(free, refit)
+        if refit_error >= error:
+            break
+        best, error = refit, refit_error
+    if error > (1.0 - REFIT_MIN_GAIN) * first_error:
+        return fit
+    if best is not fit:
+        logger.info(
+            "arm map refitted with %d nodes instead of %d: %.2f mm from the demonstration outside contact "
+            "instead of %.2f mm (path_tolerance_m=%g)", best.n_nodes, n_nodes, 1e3 * error, 1e3 * first_error,
+            tolerance,
+        )  # fmt: skip
+    return best
+
+
+def _free_samples(data: _SegmentData, fit: ElasticMapFit, f_contact: float | None) -> list[Array]:
+    """Per episode, the demonstrated positions ``(k, 3)`` the path tolerance holds at: those within the
+    time span of the map's own nodes (before its first node and after its last, the junctions with the
+    neighbouring segments set the path), more than one node spacing in time from every contact sample
+    (force norm above ``f_contact``; None: no contact): the force points lift the map there on purpose,
+    and its neighbouring nodes with it. Times are fractions of each episode's segment."""
+    scale = fit.duration if fit.duration > 0 else 1.0
+    first, last = fit.node_times[0] / scale, fit.node_times[-1] / scale
+    spacing = 1.0 / (fit.n_nodes - 1)
+    free = []
+    for x, f, t in zip(data.xs, data.fs, data.ts, strict=True):
+        frac = t / t[-1] if t[-1] > 0 else np.zeros_like(t)
+        keep = (frac >= first) & (frac <= last)
+        touch = frac[np.linalg.norm(f, axis=1) > f_contact] if f_contact is not None else frac[:0]
+        if len(touch):
+            after = np.minimum(np.searchsorted(touch, frac), len(touch) - 1)
+            before = np.maximum(after - 1, 0)
+            gap = np.minimum(np.abs(frac - touch[after]), np.abs(frac - touch[before]))
+            keep &= gap > spacing
+        free.append(x[keep])
+    return free
+
+
+def _path_error(free: list[Array], fit: ElasticMapFit) -> float:
+    """The largest distance (m) from the positions ``free`` to the map's path: its nodes' positions
+    joined by straight lines (a space-time map's time coordinate left out); 0 without positions."""
+    return max((float(polyline_distances(x, fit.nodes[:, :3]).max()) for x in free if len(x)), default=0.0)
 
 
 def _fit_arm(data: _SegmentData, arm: ArmMap, n_nodes: int, has_force: bool) -> ElasticMapFit:

@@ -141,6 +141,8 @@ class ArmMap:
     """The arm's elastic map of each segment (force points from the wrist force).
 
     n_nodes: nodes per segment (None: ``nodes_per_second`` × duration, at least ``min_nodes``);
+    path_tolerance_m (m or None): with ``n_nodes`` None, a map farther than this from a demonstrated
+    sample outside contact is refitted with more nodes (``skill.fit.NODE_REFINEMENTS``; None: never);
     lam, mu: stretching and bending weights; delta (m): a force point sits this far behind each
     contact sample, along its force; f_contact (N): samples pressing harder are contact samples;
     stiffness k (N/m): a node in steady contact with force F is lifted by F/k; rho_max: caps a node's
@@ -153,6 +155,7 @@ class ArmMap:
     n_nodes: int | None = None
     nodes_per_second: float = 10.0
     min_nodes: int = 5
+    path_tolerance_m: float | None = 0.004
     lam: float = 0.01
     mu: float = 0.01
     delta: float = 0.01
@@ -287,6 +290,7 @@ ARM_RULES: dict[str, Rule] = {
     "n_nodes": partial(check_int, low=3, none_ok=True),
     "nodes_per_second": _POSITIVE,
     "min_nodes": partial(check_int, low=3),
+    "path_tolerance_m": _unit(_POSITIVE_OR_NONE, "m"),
     "lam": _NON_NEGATIVE,
     "mu": _NON_NEGATIVE,
     "delta": _unit(_NON_NEGATIVE, "m"),

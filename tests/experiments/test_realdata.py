@@ -51,11 +51,8 @@ def test_without_recordings_nothing_is_written(tmp_path, capsys):
 
 # ---- the real recordings -------------------------------------------------------------------------------
 
-#: what the study measures and does not meet (results/realdata.md says why)
-KNOWN_MISSES = {
-    # the elastic map (10 nodes per second) cuts a corner of the approach 0.15 s before touch-down
-    ("erase_2024-09-09_153418", "path"): "the approach's last corner is cut by 5.4 mm",
-}
+#: (recording, criterion): why the study does not meet it, a strict xfail each (results/realdata.md)
+KNOWN_MISSES: dict[tuple[str, str], str] = {}
 CRITERIA = ("changepoints", "path", "steps", "depth")
 
 

@@ -64,6 +64,8 @@ def test_registered_and_lerobot_defaults():
         ({"segmentation_window_s": float("inf")}, "segmentation_window_s"),
         ({"min_segment_s": float("nan")}, "min_segment_s"),
         ({"nodes_per_second": float("inf")}, "nodes_per_second"),
+        ({"path_tolerance_m": 0.0}, "path_tolerance_m: must be a finite number > 0 m or None, got 0.0"),
+        ({"path_tolerance_m": "4 mm"}, "path_tolerance_m"),
         ({"gripper_nodes_per_second": float("inf")}, "gripper_nodes_per_second"),
         ({"segment_overrides": {1: {"time_scale": -0.05}}}, r"segment_overrides\[1\]\['time_scale'\]"),
         ({"segment_overrides": {0: {"stiffness": "stiff"}}}, r"segment_overrides\[0\]\['stiffness'\]"),

@@ -7,11 +7,19 @@ import dataclasses
 import numpy as np
 import pytest
 
+from lerobot_forcemap.geometry import polyline_distances
 from lerobot_forcemap.segmentation import AUTHORS_WINDOW_S
-from lerobot_forcemap.skill.fit import episode_streams, fit_skill, segment_episode, segmentation_config
+from lerobot_forcemap.skill.episodes import EpisodeArrays
+from lerobot_forcemap.skill.fit import (
+    NODE_REFINEMENTS,
+    episode_streams,
+    fit_skill,
+    segment_episode,
+    segmentation_config,
+)
 from lerobot_forcemap.skill.placement import place_skill
 
-from .helpers import OBJECT_NAMES, params, press_episode
+from .helpers import OBJECT_NAMES, TOOL_DOWN, params, press_episode
 
 K_DEMO = 2000.0  # the controller stiffness behind the synthetic demonstrations
 DEPTH = 0.02  # target depth below the surface while holding: F = K_DEMO * DEPTH = 40 N
@@ -229,3 +237,75 @@ def test_a_set_event_weight_without_a_contact_column_is_reported(caplog):
         streams = episode_streams(press_episode(0), params(stream_weights={"lift_off": 2.0}))
     assert "lift_off" not in [s.name for s in streams]
     assert "stream_weights['lift_off']=2 is set, but the dataset has no 'contact' feature" in caplog.text
+
+
+# ---- node count from the path tolerance ------------------------------------------------------------
+
+FPS = 50.0
+
+
+def _free_path(x: np.ndarray) -> EpisodeArrays:
+    """A demonstration without force along the positions ``x (T, 3)`` at ``FPS``."""
+    T = len(x)
+    return EpisodeArrays(
+        episode=0,
+        times=np.arange(T) / FPS,
+        pose=np.column_stack([x, np.tile(TOOL_DOWN, (T, 1))]),
+        force=np.zeros((T, 3)),
+        gripper=np.zeros(T),
+        gripper_force=None,
+        env_state=None,
+        joints=None,
+        finger_force=None,
+        segment_labels=None,
+        has_force=False,
+    )
+
+
+def _arm_fit(x: np.ndarray, tolerance: float | None, *more: np.ndarray):
+    episodes = [_free_path(p) for p in (x, *more)]
+    _, report = fit_skill(episodes, params(segments="none", path_tolerance_m=tolerance), FPS)
+    return report.arm_fits[0]
+
+
+def test_a_sharp_corner_gets_more_nodes_until_the_map_meets_the_path_tolerance():
+    s = np.arange(0.0, 2.0 + 1e-9, 1.0 / FPS)  # 0.2 m along x, then a right-angle turn at 0.2 m/s
+    corner = np.column_stack([0.4 + 0.2 * np.minimum(s, 1.0), 0.2 * np.maximum(s - 1.0, 0.0), 0.2 + 0 * s])
+    inner = corner[10:-10]  # the ends are the junctions' (fit.py, _free_samples)
+    plain = _arm_fit(corner, None)
+    assert plain.n_nodes == 21  # nodes_per_second=10 over 2 s
+    assert polyline_distances(inner, plain.nodes[:, :3]).max() > 0.005
+    refined = _arm_fit(corner, 0.005)
+    assert 21 < refined.n_nodes <= 1 + NODE_REFINEMENTS[-1] * 20
+    assert polyline_distances(inner, refined.nodes[:, :3]).max() <= 0.005
+    # a tolerance no count meets: bounded by the last refinement
+    assert _arm_fit(corner, 0.0005).n_nodes == 1 + NODE_REFINEMENTS[-1] * 20
+
+
+def test_a_smooth_path_keeps_its_node_count_and_nodes():
+    s = np.arange(0.0, 2.0 + 1e-9, 1.0 / FPS)
+    arc = np.column_stack([0.4 + 0.3 * np.cos(0.5 * s), 0.3 * np.sin(0.5 * s), 0.2 + 0 * s])
+    plain, checked = _arm_fit(arc, None), _arm_fit(arc, 0.001)
+    assert checked.n_nodes == plain.n_nodes == 21
+    np.testing.assert_array_equal(checked.nodes, plain.nodes)
+
+
+def test_the_force_points_lift_is_no_path_error():
+    """k = 0.8 K_demo lifts the contact nodes by 25 mm, past the demonstrated surface, on purpose: that,
+    and the samples next to the contact it pulls the map away from, never ask for more nodes."""
+    ep = press_episode(0, depth=DEPTH, K=K_DEMO)
+    lifted, _, _ = _fit([ep], stiffness=0.8 * K_DEMO, path_tolerance_m=0.001)
+    plain, _, _ = _fit([ep], stiffness=0.8 * K_DEMO, path_tolerance_m=None)
+    assert [len(s.nodes) for s in lifted.segments] == [len(s.nodes) for s in plain.segments]
+
+
+def test_demonstrations_apart_keep_the_first_fit():
+    """Two demonstrations 12 mm apart: the map runs between them, 6 mm from each, and more nodes do not
+    bring it closer, so the refits are dropped."""
+    s = np.arange(0.0, 2.0 + 1e-9, 1.0 / FPS)
+    arc = np.column_stack([0.4 + 0.3 * np.cos(0.5 * s), 0.3 * np.sin(0.5 * s), 0.2 + 0 * s])
+    lower, upper = arc - [0.0, 0.0, 0.006], arc + [0.0, 0.0, 0.006]
+    plain, checked = _arm_fit(lower, None, upper), _arm_fit(lower, 0.004, upper)
+    assert polyline_distances(lower[10:-10], plain.nodes[:, :3]).max() > 0.005
+    assert checked.n_nodes == plain.n_nodes
+    np.testing.assert_array_equal(checked.nodes, plain.nodes)
