@@ -265,10 +265,13 @@ def segment_anchor(
         and slot.name not in rest
         and float(np.min(object_distances(positions, env_state, slot))) < radius
     ]
-    if moved:
-        reference = np.stack([object_positions(env_state, slot)[-1] for slot in moved])
-        track = {c.name: object_positions(env_state, c)[-1] for c in static}
-        return choose_anchor(reference, track, static, radius)
+    if moved:  # each static object's distance to where the moved objects end (to their boxes)
+        last = np.asarray(env_state)[-1:]
+        distances = {
+            c.name: np.array([object_distances(object_positions(last, c), last, m)[0] for m in moved])
+            for c in static
+        }
+        return _nearest_within(distances, radius)
     return _nearest_within({c.name: object_distances(positions, env_state, c) for c in static}, radius)
 
 

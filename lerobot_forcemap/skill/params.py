@@ -193,7 +193,8 @@ class GripperMap:
 class Anchoring:
     """Which object a segment is stored relative to.
 
-    anchor_radius (m): a segment whose path comes this close to an object is stored in its frame;
+    anchor_radius (m): a segment whose path comes this close to an object (its bounding box when the
+    state gives its extents) is stored in its frame;
     static_tolerance (m): an object moving more during a segment is not its anchor;
     anchor_by_moved_object: a segment that moves an object is anchored by where that object ends.
     """
