@@ -247,12 +247,13 @@ def segment_anchor(
     radius: float,
     *,
     by_moved_object: bool = False,
+    surface: bool = True,
 ) -> str:
     """The anchor of one segment (positions ``(T, 3)`` of the robot, environment state ``(T, E)``).
 
     Only objects at rest during the segment (``static``) can be anchors: the static object nearest to
-    the robot's path, within ``radius`` (of its bounding box when the state gives its extents,
-    :func:`object_distances`). With ``by_moved_object``, a segment in which the robot moves
+    the robot's path, within ``radius`` (with ``surface``, of its bounding box when the state gives its
+    extents, :func:`object_distances`). With ``by_moved_object``, a segment in which the robot moves
     an object (one that comes within ``radius`` of its path and is not at rest: carried, pushed) is
     about where that object goes: its anchor is the static object nearest to the moved object's final
     position (within ``radius``: a book pushed against a wall), or none (an object lifted into free
@@ -263,16 +264,20 @@ def segment_anchor(
         for slot in slots
         if by_moved_object
         and slot.name not in rest
-        and float(np.min(object_distances(positions, env_state, slot))) < radius
+        and float(np.min(object_distances(positions, env_state, slot, surface))) < radius
     ]
     if moved:  # each static object's distance to where the moved objects end (to their boxes)
         last = np.asarray(env_state)[-1:]
         distances = {
-            c.name: np.array([object_distances(object_positions(last, c), last, m)[0] for m in moved])
+            c.name: np.array(
+                [object_distances(object_positions(last, c), last, m, surface)[0] for m in moved]
+            )
             for c in static
         }
         return _nearest_within(distances, radius)
-    return _nearest_within({c.name: object_distances(positions, env_state, c) for c in static}, radius)
+    return _nearest_within(
+        {c.name: object_distances(positions, env_state, c, surface) for c in static}, radius
+    )
 
 
 #: the node counts, as multiples of ``nodes_per_second``'s, a segment's arm map is refitted with (in
@@ -390,6 +395,7 @@ def _anchor_of_segment(
         static,
         a.anchor_radius,
         by_moved_object=a.anchor_by_moved_object,
+        surface=a.anchor_to_surface,
     )
 
 

@@ -167,14 +167,14 @@ def object_positions(env_state: Array, slot: ObjectSlot) -> Array:
     return env_state.reshape(-1, env_state.shape[-1])[:, list(slot.position)]
 
 
-def object_distances(positions: Array, env_state: Array, slot: ObjectSlot) -> Array:
+def object_distances(positions: Array, env_state: Array, slot: ObjectSlot, surface: bool = True) -> Array:
     """Distance (m) ``(T,)`` of positions ``(T, 3)`` to one object in environment-state rows ``(T, E)``
-    (row t for position t): to its bounding box (posed by row t) when the state gives its half
-    extents, else to its position. A large object's surface, not its centre, is where the robot
-    meets it."""
+    (row t for position t): with ``surface``, to its bounding box (posed by row t) when the state
+    gives its half extents, else to its position. A large object's surface, not its centre, is where
+    the robot meets it."""
     env_state = np.asarray(env_state, dtype=np.float64).reshape(-1, np.shape(env_state)[-1])
     offset = np.asarray(positions, dtype=np.float64) - env_state[:, list(slot.position)]
-    if slot.extents is None or slot.quaternion is None:
+    if not surface or slot.extents is None or slot.quaternion is None:
         return np.linalg.norm(offset, axis=1)
     local = quat_rotate(quat_conjugate(env_state[:, list(slot.quaternion)]), offset)
     outside = np.maximum(np.abs(local) - np.abs(env_state[:, list(slot.extents)]), 0.0)
