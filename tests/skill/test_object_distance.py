@@ -4,6 +4,7 @@ state gives its half extents (``<obj>_hx/_hy/_hz``), else to its position."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from lerobot_forcemap.geometry import rotvec_to_quat
 from lerobot_forcemap.skill.fit import segment_anchor, static_objects
@@ -60,6 +61,7 @@ def test_a_path_along_a_large_objects_face_anchors_to_it():
     behind = centre + 0.12 * np.array([-np.cos(0.3), -np.sin(0.3), 0.0])
     path = path - path[-1] + behind  # ends 3 cm behind the turned book's rear face
     assert segment_anchor(path, env, slots, static, 0.05) == "obj"
+    assert segment_anchor(path, env, slots, static, 0.05, surface=False) == ""  # 12 cm from the centre
     no_extents = object_slots(BOOK[:7])
     assert (
         segment_anchor(
@@ -85,6 +87,7 @@ def test_a_pushed_object_anchors_the_segment_to_the_fixture_its_box_ends_at():
     assert [s.name for s in static] == ["wall"]
     assert np.linalg.norm(centres[-1] - wall) > 0.09
     assert segment_anchor(path, env, slots, static, 0.05, by_moved_object=True) == "wall"
+    assert segment_anchor(path, env, slots, static, 0.05, by_moved_object=True, surface=False) == ""
 
 
 class _Episode:
@@ -92,3 +95,12 @@ class _Episode:
 
     def __init__(self, env_state):
         self.env_state = env_state
+
+
+def test_anchor_to_surface_is_a_checked_setting():
+    from lerobot_forcemap.skill.params import SkillParams
+
+    assert SkillParams.from_settings({}).anchoring.anchor_to_surface is True
+    assert SkillParams.from_settings({"anchor_to_surface": False}).anchoring.anchor_to_surface is False
+    with pytest.raises(ValueError, match="anchor_to_surface"):
+        SkillParams.from_settings({"anchor_to_surface": "no"})
