@@ -141,7 +141,8 @@ class ForceMapConfig(PreTrainedConfig):
         gripper_lam, gripper_mu, gripper_delta, gripper_f_contact, gripper_stiffness,
             gripper_time_scale, gripper_nodes_per_second: the gripper maps (``skill.params.GripperMap``).
         segment_overrides: ``{segment: {setting: value}}`` changes a map setting for one segment.
-        anchor_radius, static_tolerance, anchor_by_moved_object: anchoring (``skill.params.Anchoring``).
+        anchor_radius, static_tolerance, anchor_by_moved_object, anchor_to_surface: anchoring
+            (``skill.params.Anchoring``).
         reanchor: False replays the demonstration in the base frame (an ablation).
         reanchor_online: re-anchor each object-anchored segment when it starts, to the object observed
             then (objects moved since reset); False: at reset only.
@@ -230,6 +231,7 @@ class ForceMapConfig(PreTrainedConfig):
     anchor_radius: float = _ANCHORING.anchor_radius
     static_tolerance: float = _ANCHORING.static_tolerance
     anchor_by_moved_object: bool = _ANCHORING.anchor_by_moved_object
+    anchor_to_surface: bool = _ANCHORING.anchor_to_surface
     reanchor: bool = True
     reanchor_online: bool = True
     reanchor_tolerance: float = 0.0005

@@ -61,11 +61,17 @@ TABLE2_HYBRID = {"press": {"force_threshold": 8.0}, "erase": {"force_threshold":
 #: re-anchors object-anchored segments when they start (``reanchor_online``, default); these settings
 #: let a segment anchor to an object that settles by up to 2 cm during it (the book after it is stood
 #: up), look 15 cm around the hand, and anchor a segment that moves an object by where the object goes
-#: (``anchor_by_moved_object``: the push to the wall -> the wall; the lift -> follows the grasp)
+#: (``anchor_by_moved_object``: the push to the wall -> the wall; the lift -> follows the grasp), the
+#: 15 cm measured from the object's centre (``anchor_to_surface=false``: the radius was chosen so)
 GRASP_TASKS = {
     task: (task_spec(task).objects[0], task_spec(task).objects[1:]) for task in ("grasp_push", "grasp_flip")
 }
-GRASP_OVERRIDES = ("static_tolerance=0.02", "anchor_radius=0.15", "anchor_by_moved_object=true")
+GRASP_OVERRIDES = (
+    "static_tolerance=0.02",
+    "anchor_radius=0.15",
+    "anchor_by_moved_object=true",
+    "anchor_to_surface=false",
+)
 
 #: the paper's segmentation weightings (Table I; Cartesian, joints, gripper, wrist force, finger force)
 WEIGHTINGS = {

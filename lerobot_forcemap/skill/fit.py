@@ -59,6 +59,7 @@ from lerobot_forcemap.skill.params import (
 from lerobot_forcemap.skill.placement import (
     IDENTITY_POSE,
     ObjectSlot,
+    object_distances,
     object_poses,
     object_positions,
     object_slots,
@@ -221,11 +222,20 @@ def choose_anchor(
     """The nearest candidate object coming within ``radius`` of the positions ``(T, 3)``, or "".
 
     ``poses[name]``: the object's pose ``(7,)``, or its poses at the same frames ``(T, 7)``."""
+    distances = {
+        slot.name: np.linalg.norm(positions - np.asarray(poses[slot.name])[..., :3], axis=-1)
+        for slot in candidates
+    }
+    return _nearest_within(distances, radius)
+
+
+def _nearest_within(distances: dict[str, Array], radius: float) -> str:
+    """The object whose least distance (``{name: (T,)}``, m) is smallest and below ``radius``, or ""."""
     best, best_d = "", np.inf
-    for slot in candidates:
-        d = float(np.min(np.linalg.norm(positions - np.asarray(poses[slot.name])[..., :3], axis=-1)))
+    for name, d in distances.items():
+        d = float(np.min(d))
         if d < radius and d < best_d:
-            best, best_d = slot.name, d
+            best, best_d = name, d
     return best
 
 
@@ -237,11 +247,13 @@ def segment_anchor(
     radius: float,
     *,
     by_moved_object: bool = False,
+    surface: bool = True,
 ) -> str:
     """The anchor of one segment (positions ``(T, 3)`` of the robot, environment state ``(T, E)``).
 
     Only objects at rest during the segment (``static``) can be anchors: the static object nearest to
-    the robot's path, within ``radius``. With ``by_moved_object``, a segment in which the robot moves
+    the robot's path, within ``radius`` (with ``surface``, of its bounding box when the state gives its
+    extents, :func:`object_distances`). With ``by_moved_object``, a segment in which the robot moves
     an object (one that comes within ``radius`` of its path and is not at rest: carried, pushed) is
     about where that object goes: its anchor is the static object nearest to the moved object's final
     position (within ``radius``: a book pushed against a wall), or none (an object lifted into free
@@ -252,15 +264,20 @@ def segment_anchor(
         for slot in slots
         if by_moved_object
         and slot.name not in rest
-        and float(np.min(np.linalg.norm(positions - object_positions(env_state, slot), axis=1))) < radius
+        and float(np.min(object_distances(positions, env_state, slot, surface))) < radius
     ]
-    if moved:
-        reference = np.stack([object_positions(env_state, slot)[-1] for slot in moved])
-        track = {c.name: object_positions(env_state, c)[-1] for c in static}
-    else:
-        reference = positions
-        track = {c.name: object_positions(env_state, c) for c in static}
-    return choose_anchor(reference, track, static, radius)
+    if moved:  # each static object's distance to where the moved objects end (to their boxes)
+        last = np.asarray(env_state)[-1:]
+        distances = {
+            c.name: np.array(
+                [object_distances(object_positions(last, c), last, m, surface)[0] for m in moved]
+            )
+            for c in static
+        }
+        return _nearest_within(distances, radius)
+    return _nearest_within(
+        {c.name: object_distances(positions, env_state, c, surface) for c in static}, radius
+    )
 
 
 #: the node counts, as multiples of ``nodes_per_second``'s, a segment's arm map is refitted with (in
@@ -378,6 +395,7 @@ def _anchor_of_segment(
         static,
         a.anchor_radius,
         by_moved_object=a.anchor_by_moved_object,
+        surface=a.anchor_to_surface,
     )
 
 

@@ -194,6 +194,8 @@ class Anchoring:
     """Which object a segment is stored relative to.
 
     anchor_radius (m): a segment whose path comes this close to an object is stored in its frame;
+    anchor_to_surface: the distance is to the object's bounding box when the state gives its extents
+    (``<obj>_hx/_hy/_hz``; False: always to its position);
     static_tolerance (m): an object moving more during a segment is not its anchor;
     anchor_by_moved_object: a segment that moves an object is anchored by where that object ends.
     """
@@ -201,6 +203,7 @@ class Anchoring:
     anchor_radius: float = 0.05
     static_tolerance: float = 0.005
     anchor_by_moved_object: bool = False
+    anchor_to_surface: bool = True
 
     def __post_init__(self) -> None:
         check_fields(type(self).__name__, self, ANCHORING_RULES)
@@ -314,6 +317,7 @@ ANCHORING_RULES: dict[str, Rule] = {
     "anchor_radius": _unit(_POSITIVE, "m"),
     "static_tolerance": _unit(_POSITIVE, "m"),
     "anchor_by_moved_object": check_bool,
+    "anchor_to_surface": check_bool,
 }
 GROUPS = {
     "columns": Columns,

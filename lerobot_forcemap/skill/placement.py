@@ -2,7 +2,8 @@
 
 Objects come from the environment state by name: every ``<obj>_x <obj>_y <obj>_z`` triple of
 ``env_state_names`` is an object position, ``<obj>_qw .. <obj>_qz`` (if present) its orientation
-(w first); e.g. the press task's ``button_x ... button_qz``.
+(w first), ``<obj>_hx <obj>_hy <obj>_hz`` (if present, with the orientation) the half extents (m) of
+its bounding box in its own frame; e.g. the press task's ``button_x ... button_qz``.
 
 An anchored segment s is stored in the frame of its object's pose at the segment's first frame in
 the demonstration (``anchor_pose`` A_s); ``anchor_initial_pose`` A_0 is the object's pose at the
@@ -80,6 +81,7 @@ __all__ = [
     "to_object_frame",
     "from_object_frame",
     "object_positions",
+    "object_distances",
     "compose_poses",
     "invert_pose",
     "predicted_anchor_poses",
@@ -105,11 +107,13 @@ START_BLEND_TURN_RATE = 0.5
 
 @dataclass(frozen=True)
 class ObjectSlot:
-    """Where one object's pose sits in the environment state: position columns (3), quaternion columns (4) or None."""
+    """Where one object's pose sits in the environment state: position columns (3), quaternion columns
+    (4) or None, half-extent columns (3) or None (only with a quaternion)."""
 
     name: str
     position: tuple[int, int, int]
     quaternion: tuple[int, int, int, int] | None
+    extents: tuple[int, int, int] | None = None
 
 
 def object_slots(names: Sequence[str]) -> tuple[ObjectSlot, ...]:
@@ -125,9 +129,12 @@ def object_slots(names: Sequence[str]) -> tuple[ObjectSlot, ...]:
             continue
         pos = tuple(index[f"{obj}_{a}"] for a in "xyz")
         quat = None
+        extents = None
         if all(f"{obj}_q{a}" in index for a in "wxyz"):
             quat = tuple(index[f"{obj}_q{a}"] for a in "wxyz")
-        slots.append(ObjectSlot(obj, pos, quat))
+            if all(f"{obj}_h{a}" in index for a in "xyz"):
+                extents = tuple(index[f"{obj}_h{a}"] for a in "xyz")
+        slots.append(ObjectSlot(obj, pos, quat, extents))
     return tuple(slots)
 
 
@@ -158,6 +165,20 @@ def object_positions(env_state: Array, slot: ObjectSlot) -> Array:
     """Positions ``(T, 3)`` of one object from environment-state rows ``(T, E)``."""
     env_state = np.asarray(env_state, dtype=np.float64)
     return env_state.reshape(-1, env_state.shape[-1])[:, list(slot.position)]
+
+
+def object_distances(positions: Array, env_state: Array, slot: ObjectSlot, surface: bool = True) -> Array:
+    """Distance (m) ``(T,)`` of positions ``(T, 3)`` to one object in environment-state rows ``(T, E)``
+    (row t for position t): with ``surface``, to its bounding box (posed by row t) when the state
+    gives its half extents, else to its position. A large object's surface, not its centre, is where
+    the robot meets it."""
+    env_state = np.asarray(env_state, dtype=np.float64).reshape(-1, np.shape(env_state)[-1])
+    offset = np.asarray(positions, dtype=np.float64) - env_state[:, list(slot.position)]
+    if not surface or slot.extents is None or slot.quaternion is None:
+        return np.linalg.norm(offset, axis=1)
+    local = quat_rotate(quat_conjugate(env_state[:, list(slot.quaternion)]), offset)
+    outside = np.maximum(np.abs(local) - np.abs(env_state[:, list(slot.extents)]), 0.0)
+    return np.linalg.norm(outside, axis=1)
 
 
 def compose_poses(a: Array, b: Array) -> Array:
