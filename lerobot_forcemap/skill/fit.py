@@ -75,7 +75,6 @@ __all__ = [
     "episode_streams",
     "segment_episode",
     "static_objects",
-    "choose_anchor",
     "segment_anchor",
     "segment_frames",
     "fit_skill",
@@ -214,19 +213,6 @@ def static_objects(
         if moved < tolerance:
             out.append(slot)
     return out
-
-
-def choose_anchor(
-    positions: Array, poses: dict[str, Array], candidates: list[ObjectSlot], radius: float
-) -> str:
-    """The nearest candidate object coming within ``radius`` of the positions ``(T, 3)``, or "".
-
-    ``poses[name]``: the object's pose ``(7,)``, or its poses at the same frames ``(T, 7)``."""
-    distances = {
-        slot.name: np.linalg.norm(positions - np.asarray(poses[slot.name])[..., :3], axis=-1)
-        for slot in candidates
-    }
-    return _nearest_within(distances, radius)
 
 
 def _nearest_within(distances: dict[str, Array], radius: float) -> str:
