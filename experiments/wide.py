@@ -1,6 +1,6 @@
 """The force tasks under "wide" variation, and one checkpoint per task against the controller's stiffness.
 
-    python -m experiments.wide [--workers 2] [--episodes 50] [--quick --out DIR]
+    python -m experiments.wide [--workers 2] [--episodes 50] [--tasks T ...] [--quick --out DIR]
 
 Writes ``results/wide.json`` and ``results/wide.md``. Two parts:
 
@@ -37,8 +37,11 @@ from experiments.paper.common import (
     RESULTS,
     WORKDIR,
     Settings,
+    split_seeds,
 )
-from experiments.paper.jobs import Job, JobRunner, code_fingerprint, split_seeds
+from experiments.paper.jobs import Job, code_fingerprint
+from lerobot_forcemap import executor
+from lerobot_forcemap._validation import check_int, usage_errors
 
 #: the seeds of the wide part (not the paper's evaluation or tuning seeds)
 WIDE_SEED0 = 5000
@@ -177,17 +180,22 @@ def _cached(cell: Cell, workdir: Path) -> bool:
     return all((raw / f"{j.key()}.json").is_file() for j in cell.jobs)
 
 
-def run(s: Settings, n: int, others: int, stiffness_n: int, *, cached_only: bool = False) -> dict[str, Any]:
-    """Run (or, with ``cached_only``, collect the finished) cells; the records of ``results/wide.json``."""
+def run(
+    s: Settings, n: int, others: int, stiffness_n: int, *, cached_only: bool = False, tasks=None
+) -> dict[str, Any]:
+    """Run (or, with ``cached_only``, collect the finished) cells of ``tasks`` (default: all); the
+    records of ``results/wide.json``."""
     demos = s.demos
     cells = [c for t in FORCE_TASKS for c in force_task_cells(t, n, others, demos)]
     cells += [c for t in GRASP_TASKS for c in grasp_cells(t, n, others, demos)]
     cells += stiffness_cells(stiffness_n, max(2, stiffness_n // 2))
+    if tasks:
+        cells = [c for c in cells if c.task in tasks]
     cells.sort(key=_priority)
     if cached_only:
         cells = [c for c in cells if _cached(c, s.workdir)]
-    with JobRunner(s.workers) as runner:
-        run_cells(cells, replace(s, runner=runner), "wide")
+    with executor.make_executor(s.workers, ray=s.ray, ray_address=s.ray_address) as ex:
+        run_cells(cells, replace(s, executor=ex), "wide")
     records = []
     for c in cells:
         rec = aggregate(c)
@@ -227,7 +235,7 @@ def main(argv: list[str] | None = None) -> int:
     from experiments.wide_report import write_report
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    executor.add_arguments(p, workers=2)
     p.add_argument("--episodes", type=int, default=50, help="episodes of each defaults row (default 50)")
     p.add_argument("--others", type=int, default=10, help="episodes of the other rows (default 10)")
     p.add_argument(
@@ -239,6 +247,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--cached-only", action="store_true", help="report only the rows whose episodes all ran already"
     )
+    p.add_argument(
+        "--tasks", nargs="+", choices=(*FORCE_TASKS, *GRASP_TASKS), help="run only these tasks (default: all)"
+    )
     p.add_argument("--quick", action="store_true", help="smoke-test size (needs --out)")
     p.add_argument("--out", default=None, help="results folder (default results/)")
     p.add_argument("--workdir", default=None, help="cache folder (default outputs/experiments)")
@@ -247,13 +258,22 @@ def main(argv: list[str] | None = None) -> int:
         p.error("--quick writes a smoke-test report: give --out (results/ holds the real one)")
     out = Path(args.out) if args.out else RESULTS
     workdir = Path(args.workdir) if args.workdir else (WORKDIR if not args.quick else out / "work")
-    s = Settings(workers=args.workers, results=out, workdir=workdir, demos=ALL_DEMOS)
+    with usage_errors(p):
+        check_int("--workers", args.workers, low=1)
+    s = Settings(
+        workers=args.workers,
+        ray=args.ray,
+        ray_address=args.ray_address,
+        results=out,
+        workdir=workdir,
+        demos=ALL_DEMOS,
+    )
     n, others, stiff = args.episodes, args.others, args.stiffness_episodes
     if args.quick:
         s = replace(s, demos=(0,))
         n, others, stiff = 1, 1, 1
-    doc = run(s, n, others, stiff, cached_only=args.cached_only)
-    doc["learned"] = {t: learned_note(t, LEARNED_DIR) for t in (*FORCE_TASKS, *GRASP_TASKS)}
+    doc = run(s, n, others, stiff, cached_only=args.cached_only, tasks=args.tasks)
+    doc["learned"] = {t: learned_note(t, LEARNED_DIR) for t in args.tasks or (*FORCE_TASKS, *GRASP_TASKS)}
     out.mkdir(parents=True, exist_ok=True)
     (out / "wide.json").write_text(json.dumps(doc, indent=1))
     (out / "wide.md").write_text(write_report(doc))
