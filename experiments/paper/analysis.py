@@ -113,7 +113,13 @@ def press_section(doc, cells) -> list[str]:
         return []
     tuning = doc["tuning"].get("press", {})
     k = (tuning.get("weights", {}).get("chosen") or {}).get("stiffness")
-    out = [text("press_heading"), _press_weights(ours, k)]
+    out = [text("press_heading")]
+    pkg = _rec(doc, experiment="table2", task="press", method="ours_default")
+    if pkg:
+        out.append(
+            text("press_package", c=pkg["change_vs_demo"], success_pct=100 * pkg["success_rate"], n=pkg["n"])
+        )
+    out.append(_press_weights(ours, k))
     if k is not None and k < SIM_K:
         grid = {row["params"]["stiffness"]: row for row in tuning["weights"]["grid"]}
         softer = ", ".join(
@@ -121,9 +127,9 @@ def press_section(doc, cells) -> list[str]:
         )
         travel = 1e3 * ours["metric_means"].get("max_button_travel", float("nan"))
         out.append(text("press_soft_k", k=k, sim_k=SIM_K, travel_mm=travel, softer=softer))
-    dflt = _rec(doc, experiment="table2", task="press", method="ours_default")
-    if dflt:
-        out.append(text("press_default", c=dflt["change_vs_demo"]))
+    old = _rec(doc, experiment="table2", task="press", method="ours_k3000")
+    if old:
+        out.append(text("press_k3000", c=old["change_vs_demo"]))
     lim = _rec(doc, experiment="table2", task="press", method="ours_limit")
     if lim:
         out.append(_press_limit(lim, tuning, cells))
@@ -193,11 +199,22 @@ def _press_limit(lim: dict[str, Any], tuning: dict[str, Any], cells) -> str:
 
 def erase_section(doc, cells) -> list[str]:
     out = [text("erase_heading")]
-    dflt = _rec(doc, experiment="table2", task="erase", method="ours_default")
+    pkg = _rec(doc, experiment="table2", task="erase", method="ours_default")
+    old = _rec(doc, experiment="table2", task="erase", method="ours_k3000")
     ours = _rec(doc, experiment="table2", task="erase", method="ours")
     k = (doc["tuning"].get("erase", {}).get("weights", {}).get("chosen") or {}).get("stiffness")
-    if dflt:
-        out.append(text("erase_default", k_eff=ERASE_K_EFF, c=dflt["change_vs_demo"]))
+    if pkg:
+        out.append(
+            text(
+                "erase_package",
+                c=pkg["change_vs_demo"],
+                coverage_pct=100 * pkg["metric_means"].get("coverage", float("nan")),
+                success_pct=100 * pkg["success_rate"],
+                n=pkg["n"],
+            )
+        )
+    if old:
+        out.append(text("erase_k3000", k_eff=ERASE_K_EFF, c=old["change_vs_demo"]))
     if ours and k:
         coverage = 100 * ours["metric_means"].get("coverage", float("nan"))
         kept = 1 - ERASE_K_EFF / k
@@ -232,7 +249,11 @@ def peg_section(doc, cells) -> list[str]:
     ours = _rec(doc, experiment="peg", method="ours")
     if not hyb or not ours:
         return []
-    out = [text("peg_heading"), _peg_six_numbers(doc, hyb, ours)]
+    out = [text("peg_heading")]
+    pkg = _rec(doc, experiment="peg", method="ours_default")
+    if pkg and "max_contact_force_xyz" in pkg:
+        out.append(_peg_package(hyb, pkg))
+    out.append(_peg_six_numbers(doc, hyb, ours))
     ph_o, ph_h = ours.get("force_by_gripper_phase"), hyb.get("force_by_gripper_phase")
     if ph_o and ph_h:
         closed = text(
@@ -266,6 +287,19 @@ def peg_section(doc, cells) -> list[str]:
             )
         )
     return out
+
+
+def _peg_package(hyb: dict[str, Any], pkg: dict[str, Any]) -> str:
+    """The package defaults against hybrid control on the six per-axis numbers."""
+    h, o = six(hyb), six(pkg)
+    lost = [f"{n} ({a:.2f} vs {b:.2f} N)" for n, a, b in zip(SIX_NAMES, o, h, strict=True) if a >= b]
+    return text(
+        "peg_package",
+        n_won=6 - len(lost),
+        lost=f"; not below on {', '.join(lost)}" if lost else "",
+        success_pct=100 * pkg["success_rate"],
+        n=pkg["n"],
+    )
 
 
 def _peg_six_numbers(doc, hyb: dict[str, Any], ours: dict[str, Any]) -> str:

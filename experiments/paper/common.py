@@ -171,10 +171,11 @@ def make_jobs(
     hybrid: dict[str, Any] | None = None,
     env_kwargs: dict[str, Any] | None = None,
     trace_demo: int | None = None,
+    law: tuple[str, ...] = PAPER_LAW,
 ) -> list[Job]:
     """One job per demonstration. ``design="full"``: every demonstration on every seed;
     ``"split"``: the seeds dealt round-robin over the demonstrations (n = len(seeds)). A forcemap job's
-    overrides follow :data:`PAPER_LAW`."""
+    overrides follow ``law`` (:data:`PAPER_LAW`; ``()`` for the package defaults)."""
     check_choice("design", design, DESIGNS)
     seeds_by_demo = {d: tuple(seeds) for d in demos} if design == "full" else split_seeds(seeds, demos)
     return [
@@ -184,7 +185,7 @@ def make_jobs(
             kind,
             d,
             s,
-            overrides=(*PAPER_LAW, *overrides) if kind == "forcemap" else tuple(overrides),
+            overrides=(*law, *overrides) if kind == "forcemap" else tuple(overrides),
             hybrid=tuple(sorted((hybrid or {}).items())),
             env_kwargs=tuple(sorted((env_kwargs or {}).items())),
             trace_first=trace_demo is not None and d == trace_demo,

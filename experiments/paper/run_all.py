@@ -255,7 +255,8 @@ def _write_configs(doc: dict, s: Settings, stages: tuple[str, ...]) -> None:
 
 ORDER = {"table2": 0, "peg": 1, "grasp": 2, "ablation": 3}
 METHOD_ORDER = [
-    "demonstration", "replay", "elmap", "hybrid", "act", "diffusion", "ours_default", "ours", "ours_limit", "limit_alone",
+    "demonstration", "replay", "elmap", "hybrid", "act", "diffusion", "ours_default", "ours_k3000", "ours", "ours_limit",
+    "limit_alone",
 ]  # fmt: skip
 
 

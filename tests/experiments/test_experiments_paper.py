@@ -7,7 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from experiments.paper.common import split_seeds
+from experiments.paper import force_reduction, grasping, peg_in_hole
+from experiments.paper.common import PAPER_LAW, Settings, split_seeds
 from experiments.paper.demos import (
     DemoEpisode,
     demo_force_records,
@@ -32,6 +33,29 @@ def test_split_seeds_deals_every_seed_once_over_every_demo():
     assert split_seeds([5, 6], [0, 1, 2]) == {0: (5,), 1: (6,)}
     with pytest.raises(ValueError, match="split_seeds: no demos"):
         split_seeds([1], [])
+
+
+def test_only_the_package_defaults_rows_run_without_the_paper_law():
+    s = Settings(demos=(0,), eval_seeds=(1000,))
+    chosen = {"stiffness": 1800.0, "force_limit": 3.0}
+    tuning = {
+        t: {p: {"chosen": chosen} for p in ("weights", "weights_limit", "limit_alone")}
+        for t in ("press", "erase")
+    }
+    tuning["peg_in_hole"] = {
+        "hybrid": {"chosen": {"force_threshold": 3.0, "normal": "fixed"}},
+        "ours": {"chosen": {**chosen, "f_contact": 0.5}},
+    }
+    cells = force_reduction.cells(tuning, s) + peg_in_hole.cells(tuning["peg_in_hole"], s) + grasping.cells(s)
+    for c in cells:
+        for j in c.jobs:
+            if j.kind != "forcemap":
+                continue
+            if c.method == "ours_default":
+                assert j.overrides == (), (c.experiment, c.task)
+            else:
+                assert j.overrides[: len(PAPER_LAW)] == PAPER_LAW, (c.experiment, c.task, c.method)
+    assert {c.experiment for c in cells if c.method == "ours_default"} == {"table2", "peg", "grasp"}
 
 
 def _demo(actions, state):

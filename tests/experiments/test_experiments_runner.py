@@ -40,8 +40,17 @@ def test_tiny_run_writes_json_markdown_and_figures(tiny_run):
     rows = [r for r in saved["records"] if r["experiment"] == "table2"]
     methods = {(r["task"], r["method"]) for r in rows}
     for task in ("press", "erase"):
-        for m in ("demonstration", "elmap", "ours_default", "ours", "ours_limit", "limit_alone", "hybrid"):
+        for m in (
+            "demonstration",
+            "elmap",
+            "ours_default",
+            "ours_k3000",
+            "ours",
+            "ours_limit",
+            "limit_alone",
+        ):
             assert (task, m) in methods
+        assert (task, "hybrid") in methods
     for r in rows:
         if r["method"] == "demonstration":
             assert r["n"] == 1 and r["max_contact_force"]["mean"] > 0
