@@ -87,6 +87,21 @@ def test_object_poses_are_randomised_within_the_documented_ranges():
     flip.close()
 
 
+@pytest.mark.parametrize("task", GRASP_TASKS)
+def test_clearance_is_measured_from_the_moved_table(task):
+    """Under "wide" the table moves up or down by up to 2 cm: an object resting on it has clearance 0
+    (the pre-grasp test needs < 1 cm, the lift >= 5 cm above the table, wherever the table is)."""
+    env = E.make(task, randomize="wide")
+    dz = []
+    for seed in range(6):
+        obs, info = env.reset(seed=seed)
+        dz.append(info["variation"]["shift"][2])
+        assert abs(state(env, obs)["obj_clearance"]) <= 1e-3
+        assert abs(env.unwrapped.task_impl.table_top() - dz[-1]) <= 1e-12
+    assert max(np.abs(dz)) > 0.01
+    env.close()
+
+
 def grasp_apple(command: float, steps: int = 30):
     """Close the open hand around the apple (grasp_flip) up to ``command``.
 
