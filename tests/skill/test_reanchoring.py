@@ -8,6 +8,8 @@ start, not the prediction made at reset (the policy's run: ``tests/policy/test_o
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -48,6 +50,38 @@ def test_anchors_follow_what_each_segment_does():
     assert by_path.anchors == ("box", "", "box", "box", "wall")
     # by where the moved object goes: pushed against the wall -> wall; lifted into free space -> none
     assert by_moved.anchors == ("box", "wall", "box", "box", "")
+
+
+def _yaw(angle: float) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation matrix (3, 3) and quaternion (4,) of a turn by ``angle`` about z."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), np.array(
+        [np.cos(angle / 2), 0, 0, np.sin(angle / 2)]
+    )
+
+
+def test_a_push_against_a_turned_wall_turns_with_it():
+    """Package defaults: the push is anchored to the wall (where the box ends), and with the wall's
+    orientation in the state a scene turned about the wall turns the push, not only moves it."""
+    ep = push_grasp_episode(box=BOX, wall=WALL, push=PUSH)
+    names = [*GRASP_NAMES, "wall_qw", "wall_qx", "wall_qy", "wall_qz"]
+    ep = replace(
+        ep, env_state=np.column_stack([ep.env_state, np.tile([1.0, 0, 0, 0], (len(ep.env_state), 1))])
+    )
+    cfg = params(segments="dataset")
+    skill, report = fit_skill([ep], cfg, FPS, names)
+    assert report.anchors == ("box", "wall", "box", "box", "")
+    rot, q = _yaw(0.4)
+    scene = {
+        "box": np.array([*(WALL + rot @ (BOX - WALL)), *q]),
+        "wall": np.array([*WALL, *q]),
+    }
+    demo = place_skill(skill, cfg, robot_pose=None, object_pose=skill.demo_object_poses())
+    turned = place_skill(skill, cfg, robot_pose=None, object_pose=scene)
+    expected = WALL + (demo.segments[PUSHING].nodes - WALL) @ rot.T
+    np.testing.assert_allclose(turned.segments[PUSHING].nodes, expected, atol=1e-9)
+    push = turned.segments[PUSHING].nodes[-1] - turned.segments[PUSHING].nodes[0]
+    np.testing.assert_allclose(push[:2] / np.linalg.norm(push[:2]), [np.cos(0.4), np.sin(0.4)], atol=1e-3)
 
 
 def test_segments_are_stored_in_the_object_frame_at_their_start(fitted):
