@@ -11,7 +11,9 @@
    (positions, forces and orientations), in every episode with that episode's object pose at the
    segment's first frame: that is the pose the policy observes when the segment starts and
    re-anchors to. Objects may move between segments (pushed, flipped); an object moving during the
-   segment (carried or pushed by the robot) is not its anchor.
+   segment (carried or pushed by the robot) is not its anchor; with ``anchor_by_moved_object`` (the
+   default) such a segment is anchored to the static object nearest to where the moved one ends (a
+   book pushed upright against a wall: the wall, turned with it).
 3. Fit per segment, in parallel in time (paper §IV-C): the arm map (3-D positions with the wrist
    force points, orientations SLERPed along the time law; space-time with ``time_scale``) and the
    gripper map (closure with the finger force as a reaction pointing towards "open"; space-time with

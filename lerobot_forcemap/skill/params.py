@@ -197,12 +197,13 @@ class Anchoring:
     anchor_to_surface: the distance is to the object's bounding box when the state gives its extents
     (``<obj>_hx/_hy/_hz``; False: always to its position);
     static_tolerance (m): an object moving more during a segment is not its anchor;
-    anchor_by_moved_object: a segment that moves an object is anchored by where that object ends.
+    anchor_by_moved_object: a segment that moves an object is anchored to the static object nearest to
+    where the moved one ends (``fit.segment_anchor``).
     """
 
     anchor_radius: float = 0.05
     static_tolerance: float = 0.005
-    anchor_by_moved_object: bool = False
+    anchor_by_moved_object: bool = True
     anchor_to_surface: bool = True
 
     def __post_init__(self) -> None:

@@ -51,7 +51,12 @@ unseen object's orientation says nothing about where to grasp it), and segments 
 again by the rules above with the junction, the last target of segment s − 1 (already run), as
 their start: segment s starts exactly where the robot was sent and the junction fades out over
 ``blend_s`` seconds (then it follows the shifted, object-relative path); free segments after it are
-re-solved by the elastic map with their new endpoints as equality constraints.
+re-solved by the elastic map with their new endpoints as equality constraints. A provisional
+segment (laid out on the demonstrated path, its object moved since) can be far off, and a grasp
+segment closes the gripper as it starts: it gets a lead-in instead of the blend, ``lead_in_s``
+seconds in which the robot travels from the junction to the shifted start with the
+gripper held (:class:`SkillRun`: at ``REANCHOR_TRAVEL_SPEED``, over the higher of the two points and
+down; every later segment starts that much later), then runs the shifted path as demonstrated.
 """
 
 from __future__ import annotations
@@ -70,6 +75,7 @@ from lerobot_forcemap.geometry import (
     quat_rotate,
     quat_to_rotvec,
     rotvec_to_quat,
+    slerp_sequence,
 )
 from lerobot_forcemap.skill.model import FittedSkill, Reproduction, SegmentMaps
 from lerobot_forcemap.skill.params import ArmMap, SkillParams
@@ -93,6 +99,7 @@ __all__ = [
     "IDENTITY_POSE",
     "START_BLEND_SPEED",
     "START_BLEND_TURN_RATE",
+    "REANCHOR_TRAVEL_SPEED",
     "demonstrated_reproduction",
 ]
 
@@ -103,6 +110,9 @@ IDENTITY_POSE = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
 #: to the demonstrated motion
 START_BLEND_SPEED = 0.05
 START_BLEND_TURN_RATE = 0.5
+#: a provisional segment re-anchored when it starts first travels to its shifted start at this speed
+#: (m/s), its gripper held, so that it closes on the object where the demonstration did
+REANCHOR_TRAVEL_SPEED = 0.1
 
 
 @dataclass(frozen=True)
@@ -479,13 +489,18 @@ def reanchor_segment(
     resolve: bool = True,
     blend_s: float | None = None,
     provisional: Sequence[bool] | None = None,
+    lead_in_s: float = 0.0,
+    lead_in_speed: float = 0.0,
 ) -> Reproduction:
     """``rep`` with segment ``s`` (anchored) re-anchored to its object's observed ``position (3,)``
     when it starts (module docstring). Segments before s are kept; ``skill`` is the fitted skill that
     ``rep`` places (its segments in their objects' frames). ``blend_s``: the junction (the last target
     of segment s − 1 vs the shifted start of s) fades out over this many seconds of segment s
     (None: over the whole segment); provisional: per segment of the skill, as in :func:`place_skill`
-    (for the segments after s; segment s itself is observed now)."""
+    (for the segments after s; segment s itself is observed now); ``lead_in_s`` > 0 (or, when 0,
+    ``lead_in_speed`` > 0 m/s along its path): instead of the blend, segment s first travels from the
+    junction to its shifted start in this many seconds (:func:`_lead_in_path`, the orientation
+    SLERPed, the gripper held), which delays every later segment."""
     if not 0 < s < len(skill.segments):
         raise ValueError(f"reanchor_segment: segment {s} out of range 1..{len(skill.segments) - 1}")
     obj = skill.segments[s].anchor
@@ -505,16 +520,50 @@ def reanchor_segment(
         poses.append(pose)
     prev = placed[s - 1]
     junction = np.concatenate([prev.nodes[-1], prev.orientations[-1]])
+    lead = lead_in_s > 0 or lead_in_speed > 0
     rest = _place(
         skill.segments[s:],
         [params.segment(k).arm for k in range(s, skill.n_segments)],
-        junction,
+        None if lead else junction,
         poses,
         resolve,
         blend_s,
         None if provisional is None else [False, *list(provisional)[s + 1 :]],
+    ).segments
+    if lead:
+        rest = (_with_lead_in(rest[0], prev, lead_in_s, lead_in_speed), *rest[1:])
+    return Reproduction((*placed[:s], *rest))
+
+
+def _lead_in_path(a: Array, b: Array) -> Array:
+    """Waypoints ``(K, 3)`` from ``a (3,)`` to ``b (3,)`` (base frame, z up): up (or down) to the
+    higher of their heights, across, then down to b; legs of zero length left out. The hand never
+    sweeps sideways below where it was or where it is going (into the object it is about to grasp)."""
+    top = max(a[2], b[2])
+    pts = np.array([a, [a[0], a[1], top], [b[0], b[1], top], b], dtype=np.float64)
+    keep = np.concatenate([np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-9, [True]])
+    return pts[keep]
+
+
+def _with_lead_in(seg: SegmentMaps, prev: SegmentMaps, lead_in_s: float, speed: float) -> SegmentMaps:
+    """``seg`` preceded by a lead-in from the last target of ``prev`` to ``seg``'s first node along
+    :func:`_lead_in_path`, taking ``lead_in_s`` seconds (0: its length at ``speed``), times spread
+    by length; the orientation SLERPs from ``prev``'s last to ``seg``'s first, the gripper holds
+    ``prev``'s last value."""
+    path = _lead_in_path(prev.nodes[-1], seg.nodes[0])
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
+    span = lead_in_s if lead_in_s > 0 else arc[-1] / speed
+    frac = arc[:-1] / arc[-1] if arc[-1] > 0 else np.zeros(len(arc) - 1)
+    quats = slerp_sequence([0.0, 1.0], np.stack([prev.orientations[-1], seg.orientations[0]]), frac)
+    return replace(
+        seg,
+        nodes=np.vstack([path[:-1], seg.nodes]),
+        node_times=np.concatenate([span * frac, seg.node_times + span]),
+        orientations=np.vstack([quats, seg.orientations]),
+        gripper_nodes=np.vstack([prev.gripper_nodes[-1], seg.gripper_nodes]),
+        gripper_node_times=np.concatenate([[0.0], seg.gripper_node_times + span]),
+        duration=seg.duration + span,
     )
-    return Reproduction((*placed[:s], *rest.segments))
 
 
 class SkillRun:
@@ -523,7 +572,7 @@ class SkillRun:
     Placed at the start (:meth:`start`) from each row's robot pose and object poses; while it runs,
     each object-anchored segment is re-anchored when it starts (``online``) to its object's position
     observed then (:meth:`due`, :meth:`reanchor`). ``log`` lists every re-anchoring: segment, batch
-    row, time (s since the start) and shift (m).
+    row, time (s since the start), shift (m) and lead-in (s; 0 unless the segment was provisional).
     """
 
     def __init__(
@@ -612,10 +661,13 @@ class SkillRun:
             self.provisional = provisional_segments(
                 self.skill, self.observed_as, self.params.anchoring.static_tolerance, started=s
             )
+            if was_provisional:
+                self._lead_in(s, t, [poses[obj][:3] for poses in object_poses])
+                continue
             for i, poses in enumerate(object_poses):
                 position = poses[obj][:3]
                 shift = position - self.placed[i].segments[s].anchor_pose[:3]
-                if not was_provisional and float(np.linalg.norm(shift)) <= self.tolerance:
+                if float(np.linalg.norm(shift)) <= self.tolerance:
                     continue
                 self.placed[i] = reanchor_segment(
                     self.placed[i],
@@ -626,7 +678,39 @@ class SkillRun:
                     blend_s=self.blend_s,
                     provisional=self.provisional,
                 )
-                self.log.append({"segment": s, "row": i, "t": float(t), "shift": [float(v) for v in shift]})
+                self._note(s, i, t, shift, 0.0)
+
+    def _lead_in(self, s: int, t: float, positions: Sequence[Array]) -> None:
+        """Re-anchor provisional segment ``s`` of every row with a lead-in at
+        ``REANCHOR_TRAVEL_SPEED``; the longest row's time for all, so the rows' segments keep
+        starting together."""
+        shifts = [
+            np.asarray(p, float) - rep.segments[s].anchor_pose[:3]
+            for p, rep in zip(positions, self.placed, strict=True)
+        ]
+
+        def again(i: int, **lead) -> Reproduction:
+            return reanchor_segment(
+                self.placed[i], self.skill, s, positions[i], self.params, provisional=self.provisional, **lead
+            )
+
+        placed = [again(i, lead_in_speed=REANCHOR_TRAVEL_SPEED) for i in range(len(positions))]
+        spans = [rep.segments[s].duration - self.skill.segments[s].duration for rep in placed]
+        span = float(max(spans))
+        for i, rep in enumerate(placed):
+            self.placed[i] = rep if spans[i] == span else again(i, lead_in_s=span)
+            self._note(s, i, t, shifts[i], span)
+
+    def _note(self, s: int, row: int, t: float, shift: Array, lead_in: float) -> None:
+        self.log.append(
+            {
+                "segment": s,
+                "row": row,
+                "t": float(t),
+                "shift": [float(v) for v in shift],
+                "lead_in_s": lead_in,
+            }
+        )
 
 
 def _check_robot_poses(name: str, poses: Array) -> None:

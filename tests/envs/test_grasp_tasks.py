@@ -87,6 +87,36 @@ def test_object_poses_are_randomised_within_the_documented_ranges():
     flip.close()
 
 
+def test_wall_orientation_follows_the_wide_yaw_every_episode():
+    """The wall's quaternion in the state is the scene's yaw of this episode (not the sum of earlier
+    episodes'), and the book lies turned with it (its own draw: +-3 degrees)."""
+    env = E.make("grasp_push", randomize="wide")
+    for seed in (3, 4, 5):
+        obs, info = env.reset(seed=seed)
+        st = state(env, obs)
+        q = np.array([st[f"wall_q{a}"] for a in "wxyz"])
+        yaw = info["variation"]["yaw"]
+        np.testing.assert_allclose(q, [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)], atol=1e-6)
+        book_yaw = 2 * np.arctan2(st["obj_qz"], st["obj_qw"])
+        assert abs(book_yaw - yaw) <= np.deg2rad(3.0) + 1e-6
+    env.close()
+
+
+@pytest.mark.parametrize("task", GRASP_TASKS)
+def test_clearance_is_measured_from_the_moved_table(task):
+    """Under "wide" the table moves up or down by up to 2 cm: an object resting on it has clearance 0
+    (the pre-grasp test needs < 1 cm, the lift >= 5 cm above the table, wherever the table is)."""
+    env = E.make(task, randomize="wide")
+    dz = []
+    for seed in range(6):
+        obs, info = env.reset(seed=seed)
+        dz.append(info["variation"]["shift"][2])
+        assert abs(state(env, obs)["obj_clearance"]) <= 1e-3
+        assert abs(env.unwrapped.task_impl.table_top() - dz[-1]) <= 1e-12
+    assert max(np.abs(dz)) > 0.01
+    env.close()
+
+
 def grasp_apple(command: float, steps: int = 30):
     """Close the open hand around the apple (grasp_flip) up to ``command``.
 

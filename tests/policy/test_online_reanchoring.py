@@ -43,12 +43,13 @@ def _batch(tcp, box) -> dict[str, torch.Tensor]:
 
 def _run_policy(policy: ForceMapPolicy, box_at_reset, box_after_push) -> tuple[np.ndarray, np.ndarray]:
     """Stream the reproduction; the observed box sits at ``box_at_reset`` until the reach segment
-    starts and at ``box_after_push`` from then on. Returns (actions (K, 8), segment start times)."""
+    starts and at ``box_after_push`` from then on. Returns (actions (K, 8), segment start times as
+    placed at reset; a re-anchored provisional segment's lead-in delays the later ones)."""
     policy.reset()
     starts = None
     tcp = np.array([0.30, 0.02, 0.15])
     out = []
-    for k in range(int(9.0 * FPS)):
+    for k in range(int(11.0 * FPS)):
         t = k / FPS
         box = box_at_reset if starts is None or t < starts[REACH] else box_after_push
         a = policy.select_action(_batch(tcp, box))[0].numpy().astype(float)
@@ -69,7 +70,7 @@ def test_the_policy_reanchors_a_segment_when_it_starts(online):
     after_push = BOX + [PUSH - 0.03, 0.04, 0.0]  # not where the demonstration's push would have left it
     acts, starts = _run_policy(policy, at_reset, after_push)
     k_reach = int(np.ceil(starts[REACH] * FPS - 1e-9))
-    k_grasp = int(np.ceil(starts[GRASP] * FPS - 1e-9))
+    k_grasp = int(np.ceil(policy._run.placed[0].start_times[GRASP] * FPS - 1e-9))
     grasp_point = acts[k_grasp - 1, :3]  # the end of the reach, where the hand closes
     expected = after_push + skill.segments[REACH].nodes[-1]  # the demonstrated grasp, on the observed box
     if not online:  # anchored at reset only: the grasp goes where the box was predicted to be
@@ -79,6 +80,10 @@ def test_the_policy_reanchors_a_segment_when_it_starts(online):
     np.testing.assert_allclose(grasp_point, expected, atol=2e-3)
     [entry] = [e for e in policy.reanchor_log if e["segment"] == REACH]
     np.testing.assert_allclose(entry["shift"], after_push - (at_reset + [PUSH, 0.0, 0.0]), atol=1e-6)
+    # the reach was provisional (the push moves the box first): it travels to its shifted start first,
+    # at REANCHOR_TRAVEL_SPEED, and the grasp starts that much later than placed at reset
+    delay = policy._run.placed[0].start_times[GRASP] - starts[GRASP]
+    assert entry["lead_in_s"] > 0 and delay == pytest.approx(entry["lead_in_s"], abs=1e-9)
     # the junction is smooth: no jump of the target when the reach starts
     steps = np.linalg.norm(np.diff(acts[:, :3], axis=0), axis=1)
     assert steps[k_reach - 1] < 0.012 and steps[k_reach - 1 : k_reach + 25].max() < 0.015

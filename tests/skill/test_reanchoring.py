@@ -8,6 +8,8 @@ start, not the prediction made at reset (the policy's run: ``tests/policy/test_o
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -48,6 +50,38 @@ def test_anchors_follow_what_each_segment_does():
     assert by_path.anchors == ("box", "", "box", "box", "wall")
     # by where the moved object goes: pushed against the wall -> wall; lifted into free space -> none
     assert by_moved.anchors == ("box", "wall", "box", "box", "")
+
+
+def _yaw(angle: float) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation matrix (3, 3) and quaternion (4,) of a turn by ``angle`` about z."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), np.array(
+        [np.cos(angle / 2), 0, 0, np.sin(angle / 2)]
+    )
+
+
+def test_a_push_against_a_turned_wall_turns_with_it():
+    """Package defaults: the push is anchored to the wall (where the box ends), and with the wall's
+    orientation in the state a scene turned about the wall turns the push, not only moves it."""
+    ep = push_grasp_episode(box=BOX, wall=WALL, push=PUSH)
+    names = [*GRASP_NAMES, "wall_qw", "wall_qx", "wall_qy", "wall_qz"]
+    ep = replace(
+        ep, env_state=np.column_stack([ep.env_state, np.tile([1.0, 0, 0, 0], (len(ep.env_state), 1))])
+    )
+    cfg = params(segments="dataset")
+    skill, report = fit_skill([ep], cfg, FPS, names)
+    assert report.anchors == ("box", "wall", "box", "box", "")
+    rot, q = _yaw(0.4)
+    scene = {
+        "box": np.array([*(WALL + rot @ (BOX - WALL)), *q]),
+        "wall": np.array([*WALL, *q]),
+    }
+    demo = place_skill(skill, cfg, robot_pose=None, object_pose=skill.demo_object_poses())
+    turned = place_skill(skill, cfg, robot_pose=None, object_pose=scene)
+    expected = WALL + (demo.segments[PUSHING].nodes - WALL) @ rot.T
+    np.testing.assert_allclose(turned.segments[PUSHING].nodes, expected, atol=1e-9)
+    push = turned.segments[PUSHING].nodes[-1] - turned.segments[PUSHING].nodes[0]
+    np.testing.assert_allclose(push[:2] / np.linalg.norm(push[:2]), [np.cos(0.4), np.sin(0.4)], atol=1e-3)
 
 
 def test_segments_are_stored_in_the_object_frame_at_their_start(fitted):
@@ -109,3 +143,42 @@ def test_provisional_segments_do_not_pull_their_neighbours(fitted):
     # neighbours, < 1 mm), with its predicted anchor pose to be re-anchored from
     np.testing.assert_allclose(careful.segments[REACH].nodes, demo.segments[REACH].nodes, atol=1e-3)
     np.testing.assert_allclose(careful.segments[REACH].anchor_pose, trusting.segments[REACH].anchor_pose)
+
+
+def test_lead_in_path_never_sweeps_below_its_ends():
+    from lerobot_forcemap.skill.placement import _lead_in_path
+
+    high, low = np.array([0.6, 0.0, 0.11]), np.array([0.5, 0.03, 0.05])
+    # from the hand's height across, then down onto the object (not diagonally into it)
+    np.testing.assert_allclose(_lead_in_path(high, low), [high, [0.5, 0.03, 0.11], low])
+    # from low up to the target's height first, then across
+    np.testing.assert_allclose(_lead_in_path(low, high), [low, [0.5, 0.03, 0.11], high])
+    np.testing.assert_allclose(_lead_in_path(low, low + [0.0, 0.0, 0.02]), [low, low + [0.0, 0.0, 0.02]])
+
+
+def test_a_provisional_segment_travels_to_its_shifted_start_with_the_gripper_held(fitted):
+    """Re-anchored when it starts, a provisional reach (the box was pushed somewhere else) first goes
+    to its shifted start with the gripper as it was, then runs as demonstrated on the box; every
+    later segment starts that much later, so the grasp closes on the box, not on the way to it."""
+    from lerobot_forcemap.skill.placement import REANCHOR_TRAVEL_SPEED
+
+    skill, _, cfg = fitted
+    flags = provisional_segments(skill, skill.demo_object_poses(), cfg.anchoring.static_tolerance)
+    rep = place_skill(skill, cfg, robot_pose=None, object_pose=skill.demo_object_poses(), provisional=flags)
+    q = BOX + [PUSH - 0.03, 0.04, 0.0]
+    shift = q - rep.segments[REACH].anchor_pose[:3]
+    out = reanchor_segment(rep, skill, REACH, q, cfg, provisional=flags, lead_in_speed=REANCHOR_TRAVEL_SPEED)
+    seg, junction = out.segments[REACH], rep.segments[PUSHING].nodes[-1]
+    span = seg.duration - skill.segments[REACH].duration
+    k = int(np.searchsorted(seg.node_times, span))  # the first node of the demonstrated reach
+    np.testing.assert_allclose(seg.nodes[0], junction, atol=1e-12)
+    length = np.linalg.norm(np.diff(seg.nodes[: k + 1], axis=0), axis=1).sum()
+    assert span == pytest.approx(length / REANCHOR_TRAVEL_SPEED) and length >= np.linalg.norm(shift) - 1e-3
+    # after the lead-in: the demonstrated reach on the box where it is, no blend
+    np.testing.assert_allclose(seg.nodes[k:], rep.segments[REACH].nodes + shift, atol=1e-3)
+    np.testing.assert_allclose(seg.node_times[k:], skill.segments[REACH].node_times + span, atol=1e-12)
+    # the gripper holds during the lead-in, then follows its demonstrated law, delayed
+    g = out.actions_at(np.linspace(out.start_times[REACH], out.start_times[REACH] + span, 9))[:, 7]
+    np.testing.assert_allclose(g, rep.segments[PUSHING].gripper_nodes[-1, 0], atol=1e-12)
+    np.testing.assert_allclose(out.start_times[GRASP:], rep.start_times[GRASP:] + span, atol=1e-9)
+    np.testing.assert_allclose(out.segments[GRASP].nodes, rep.segments[GRASP].nodes + shift, atol=1e-3)

@@ -14,7 +14,8 @@ unseen objects: lifted and held only). Protective stop: contact force > 60 N or 
 of yaw; TCP start +-5 mm. Objects (``object=``): ``book`` (demonstration), ``apple``, ``banana``
 (placed where the book's centre would be).
 environment_state: object state (``tasks/grasping.py``), then the wall's front-top edge centre
-``wall_x, wall_y, wall_z`` (base frame).
+``wall_x, wall_y, wall_z`` and its orientation ``wall_qw .. wall_qz`` (base frame; turned by the yaw of
+``randomize="wide"``).
 """
 
 from __future__ import annotations
@@ -58,7 +59,9 @@ class GraspPushTask(GraspTask):
     pregrasp_name: ClassVar[str] = "upright"
     fixture_bodies: ClassVar[tuple[str, ...]] = ("wall",)
     varied: ClassVar[VariedParts] = VariedParts(bodies=("wall",), free_joints=("object_free",))
-    state_names: ClassVar[tuple[str, ...]] = (*GraspTask.object_state_names, "wall_x", "wall_y", "wall_z")
+    state_names: ClassVar[tuple[str, ...]] = (
+        *GraspTask.object_state_names, "wall_x", "wall_y", "wall_z", "wall_qw", "wall_qx", "wall_qy", "wall_qz",
+    )  # fmt: skip
 
     def add_fixtures(self, spec: mujoco.MjSpec) -> None:
         wall = spec.worldbody.add_body(name="wall", pos=[WALL_NOMINAL_X, 0.0, 0.0])
@@ -75,6 +78,7 @@ class GraspPushTask(GraspTask):
     def randomize_fixtures(self, model, rng) -> None:
         x = WALL_NOMINAL_X + (rng.uniform(-WALL_RANDOM_X, WALL_RANDOM_X) if rng is not None else 0.0)
         model.body_pos[self._wall_body] = [x, 0.0, 0.0]
+        model.body_quat[self._wall_body] = [1.0, 0.0, 0.0, 0.0]  # "wide" turns it from here
 
     def wall_edge_world(self) -> np.ndarray:
         """Centre of the wall's front-top edge (world, m)."""
@@ -92,7 +96,8 @@ class GraspPushTask(GraspTask):
         return bool(abs(rot[2, 0]) >= np.cos(UPRIGHT_ANGLE))  # the book's long axis (local x) vertical
 
     def fixture_state(self) -> np.ndarray:
-        return self.frame.pos_to_base(self.wall_edge_world())
+        quat = self.frame.quat_to_base(self.model.body_quat[self._wall_body])
+        return np.concatenate([self.frame.pos_to_base(self.wall_edge_world()), quat])
 
 
 class GraspPushEnv(ForceTaskEnv):

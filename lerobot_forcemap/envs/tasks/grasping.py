@@ -210,6 +210,7 @@ class GraspTask(ForceTask):
         self._qpos = int(model.jnt_qposadr[j])
         self._dof = int(model.jnt_dofadr[j])
         self._body = model.body(OBJECT_BODY).id
+        self._table = model.body("table").id
         self._dt = float(model.opt.timestep)
 
     # ---- episodes ----------------------------------------------------------------------------------
@@ -240,6 +241,10 @@ class GraspTask(ForceTask):
         self.off_table = False
         return StartState(tcp_pos=start, tcp_quat=np.array(self.robot.tool_down_quat, float), gripper=0.0)
 
+    def table_top(self) -> float:
+        """World height (m) of the table's top (0, or where ``randomize="wide"`` moved the table)."""
+        return float(self.model.body_pos[self._table][2])
+
     def object_pose(self, data) -> tuple[np.ndarray, np.ndarray]:
         """Object centre and quaternion in the world."""
         q = data.qpos[self._qpos : self._qpos + 7]
@@ -256,7 +261,7 @@ class GraspTask(ForceTask):
         if self._clearance_time == data.time:  # update() measured this physics state (every env.step)
             clearance = self.clearance
         else:
-            clearance = lowest_point(self.obj, pos, quat_to_matrix(quat))
+            clearance = lowest_point(self.obj, pos, quat_to_matrix(quat)) - self.table_top()
         return np.concatenate(
             [
                 self.frame.pos_to_base(pos),
@@ -270,7 +275,8 @@ class GraspTask(ForceTask):
     def update(self, data, block: StepBlock) -> TaskStatus:
         pos, quat = self.object_pose(data)
         rot = quat_to_matrix(quat)
-        self.clearance = lowest_point(self.obj, pos, rot)
+        table = self.table_top()
+        self.clearance = lowest_point(self.obj, pos, rot) - table
         self._clearance_time = data.time
         self.max_clearance = max(self.max_clearance, self.clearance)
         if self.clearance < RESTING_CLEARANCE and not self.pregrasp:
@@ -280,7 +286,7 @@ class GraspTask(ForceTask):
             self.hold_time += len(block.sensordata) * self._dt
         else:
             self.hold_time = 0.0
-        self.off_table = bool(pos[2] < -0.02)
+        self.off_table = bool(pos[2] - table < -0.02)
         success = self.hold_time >= HOLD_TIME - 1e-9
         reason = ""
         if self.off_table:
