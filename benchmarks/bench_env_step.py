@@ -18,8 +18,11 @@ A block pair's ratio (reference time / env time) compares the two within millise
 so a change of the machine's speed between pairs (other processes, clock frequency) cancels. Per task:
 the median of the per-pair CPU-time ratios, their interquartile range and a bootstrap 95 % interval of
 that median (pairs resampled, 2,000 draws); the ratio of the total CPU times (bootstrap interval the
-same way); the median of the per-pair wall-time ratios; CPU milliseconds per step of each env. The
-process is pinned to one CPU core (``--cores``) like ``bench_envs.py``.
+same way); the median of the per-pair wall-time ratios; CPU milliseconds per step of each env. Then,
+from one more replay in the env alone, the share of its step spent in the physics (the
+``mujoco.rollout`` call, the same ``mj_step`` work the reference does one call at a time) and the bound
+that puts on the speed-up: the total CPU-time ratio over that share (the ratio of an env whose work
+around the physics cost nothing). The process is pinned to one CPU core (``--cores``) like ``bench_envs.py``.
 """
 
 from __future__ import annotations
@@ -85,6 +88,28 @@ def time_pairs(envs: dict, seeds: list[int], actions: list[list[np.ndarray]], ru
     return np.array(times), work
 
 
+def physics_share(env, seeds: list[int], actions: list[list[np.ndarray]]) -> float:
+    """The share of the env's step CPU time spent in its physics (``BlockStepper.run``: the
+    ``mujoco.rollout`` call), over one more replay of ``actions`` in the env alone."""
+    stepper = env.unwrapped._stepper
+    spent = [0.0, 0.0]  # physics, whole steps
+
+    def timed_run():
+        start = time.thread_time()
+        rows = type(stepper).run(stepper)
+        spent[0] += time.thread_time() - start
+        return rows
+
+    stepper.run = timed_run  # an instance attribute over the class's method, deleted below
+    try:
+        for seed, episode in zip(seeds, actions, strict=True):
+            env.reset(seed=seed)
+            spent[1] += _run_block(env, episode)[0]
+    finally:
+        del stepper.run
+    return spent[0] / spent[1]
+
+
 def _bootstrap_ci(values: np.ndarray, stat, rng: np.random.Generator) -> list[float]:
     """95 % percentile interval of ``stat`` over resamples (with replacement) of the rows of ``values``."""
     draws = rng.integers(0, len(values), size=(BOOTSTRAP_DRAWS, len(values)))
@@ -115,12 +140,17 @@ def bench_task(task: str, runs: int, episodes: int, block: int) -> dict:
     actions = record_actions(envs["env"], task, seeds)  # also the env's warm-up
     time_pairs(envs, seeds[:1], actions[:1], 1, block)  # the reference's warm-up (and a first check)
     times, work = time_pairs(envs, seeds, actions, runs, block)
+    share = physics_share(envs["env"], seeds, actions)
     for env in envs.values():
         env.close()
     if work["reference"] != work["env"]:
         raise RuntimeError(f"{task}: the envs did unequal work (steps, resets): {work}")
     steps, resets = work["env"]
-    return {"task": task, "steps": steps, "resets": resets, "pairs": len(times), **summarise(times, steps)}
+    row = {"task": task, "steps": steps, "resets": resets, "pairs": len(times), **summarise(times, steps)}
+    # the env's physics share, and the speed-up an env with no work around its physics would reach
+    row["env_physics_share"] = share
+    row["speedup_bound"] = row["speedup_total"] / share
+    return row
 
 
 def _cells(r: dict) -> list[str]:
@@ -129,6 +159,7 @@ def _cells(r: dict) -> list[str]:
         r["task"], str(r["steps"]), str(r["pairs"]), f"{r['reference_ms']:.3f}", f"{r['env_ms']:.3f}",
         f"{r['speedup']:.2f}x ({q1:.2f}..{q3:.2f}) [{lo:.2f}..{hi:.2f}]",
         f"{r['speedup_total']:.2f}x [{tlo:.2f}..{thi:.2f}]", f"{r['speedup_wall']:.2f}x",
+        f"{100 * r['env_physics_share']:.0f} %", f"{r['speedup_bound']:.2f}x",
     ]  # fmt: skip
 
 
@@ -154,7 +185,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     header = ["task", "steps per env", "block pairs", "reference (ms/step, CPU)", "env (ms/step, CPU)"]
     header += ["speed-up, CPU: median of pair ratios (IQR) [95 % CI]", "speed-up, total CPU [95 % CI]"]
-    header += ["speed-up, wall: median of pair ratios"]
+    header += ["speed-up, wall: median of pair ratios", "env's physics share", "bound: physics only"]
     print_table(header, [_cells(r) for r in rows])
     method = {"runs": args.runs, "episodes": args.episodes, "block": args.block, "cores": pinned}
     write_json(args.json, {"mujoco": mujoco.__version__, "method": method, "rows": rows})
