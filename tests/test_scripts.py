@@ -89,6 +89,7 @@ BAD_FLAGS = [
     ("bench_elmap", ["--baseline-repeats", "0"], "--baseline-repeats: must be an integer >= 1, got 0"),
     ("bench_envs", ["--episodes", "0"], "--episodes: must be an integer >= 1, got 0"),
     ("bench_env_step", ["--runs", "0"], "--runs: must be an integer >= 1, got 0"),
+    ("bench_env_step", ["--block", "0"], "--block: must be an integer >= 1, got 0"),
     ("env_tracking_error", ["--steps", "0"], "--steps: must be an integer >= 1, got 0"),
     ("bench_envs", ["--cores", "-1"], "--cores: must be an integer >= 0 and <= "),
     (

@@ -61,9 +61,12 @@ class BlockStepper:
         quat = _offset(model, _USER, _S.mjSTATE_MOCAP_QUAT) + 4 * mocap_id
         self.target_pos = self._inputs[0, :, pos : pos + 3]
         self.target_quat = self._inputs[0, :, quat : quat + 4]
-        self._held = np.ones(n_user, dtype=bool)  # the inputs that hold their value through the block
-        self._held[pos : pos + 3] = self._held[quat : quat + 4] = False
+        held = np.ones(n_user, dtype=bool)  # the inputs that hold their value through the block
+        held[pos : pos + 3] = held[quat : quat + 4] = False
         self._user = self._saved[user_start : user_start + n_user]  # a view: the saved state's inputs
+        # the held inputs as runs of columns: (rows of the block's inputs, the saved values), both views
+        edges = np.flatnonzero(np.diff(np.r_[0, held.astype(np.int8), 0]))
+        self._held_runs = [(self._inputs[0, :, a:b], self._user[a:b]) for a, b in edges.reshape(-1, 2)]
         self._warnings = data.warning.number  # a view of the data's warning counters
         self._rollout = None if Rollout is None else Rollout(nthread=0)
         if self._rollout is None:  # pragma: no cover - MuJoCo < 3.3
@@ -71,24 +74,29 @@ class BlockStepper:
         self._models, self._datas = [model], [data]
         # the full physics state (the rollout's start) and the warm start, as parts of the saved state
         parts = [1 << bit for bit in range(int(_S.mjNSTATE)) if (1 << bit) & _FULL]
-        self._full_index = np.concatenate(
+        full = np.concatenate(
             [_offset(model, _INTEGRATION, c) + np.arange(mujoco.mj_stateSize(model, c)) for c in parts]
         )
+        if np.array_equal(full, np.arange(full[0], full[0] + len(full))):  # no plugin state: one run
+            self._full_index = None
+            self._state0 = self._saved[None, full[0] : full[0] + len(full)]  # a view: no copy per block
+        else:
+            self._full_index = full
+            self._state0 = np.empty((1, len(full)))
         warm = _offset(model, _INTEGRATION, _S.mjSTATE_WARMSTART)
-        self._warm_index = slice(warm, warm + model.nv)
-        self._state0 = np.empty((1, len(self._full_index)))
-        self._warmstart = np.empty((1, model.nv))
+        self._warmstart = self._saved[None, warm : warm + model.nv]  # a view
 
     def run(self) -> np.ndarray:
         """One block along the targets; returns the sensor rows ``(n, nsensordata)`` (a buffer overwritten
         by the next block). The state before it is kept for :meth:`replay`."""
         m, d = self.model, self.data
         mujoco.mj_getState(m, d, self._saved, _INTEGRATION)
-        np.copyto(self._inputs, self._user, where=self._held)
+        for rows, saved in self._held_runs:
+            rows[...] = saved
         if self._rollout is None:  # pragma: no cover - MuJoCo < 3.3
             return self.loop(self.n_steps)
-        self._saved.take(self._full_index, out=self._state0[0])
-        self._warmstart[0] = self._saved[self._warm_index]
+        if self._full_index is not None:
+            self._saved.take(self._full_index, out=self._state0[0])
         before = self._warnings.copy() if any(self._warnings.tolist()) else None
         self._rollout.rollout(
             self._models,

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry import quat_to_matrix
+from ..geometry import quat_rows_to_matrix, quat_to_matrix
 
 GRAVITY = 9.81
 
@@ -57,20 +57,19 @@ def reaction_wrench_base(
 ) -> np.ndarray:
     """Tared reaction wrench in the base frame ``(n, 6)`` from raw sensor rows ``(n, 6)`` (site frame).
 
-    ``quat_site (n, 4)``: site orientation in the world; ``bias_site (6,)``: tare in the site frame;
+    ``quat_site (n, 4)``: site orientation in the world (unit quaternions, as the sensor gives them); ``bias_site (6,)``: tare in the site frame;
     ``base_rot_inv (3, 3)``: world-to-base rotation (None: the base frame is the world frame); ``out``:
     an ``(n, 6)`` array to write into.
     """
-    rot = quat_to_matrix(quat_site)
-    tool_site = (
-        raw_site - payload.expected_wrench_from_mat(rot) - bias_site
-    )  # what the tool applies, site frame
+    rot = quat_rows_to_matrix(quat_site)  # the sensor's quaternions: unit, no check needed
+    tool_site = raw_site - payload.expected_wrench_from_mat(rot)
+    tool_site -= bias_site  # what the tool applies, site frame
     if base_rot_inv is not None:
         rot = base_rot_inv[None] @ rot
-    out = np.empty((len(rot), 6)) if out is None else out
-    np.negative(np.einsum("nij,nj->ni", rot, tool_site[:, :3]), out=out[:, :3])
-    np.negative(np.einsum("nij,nj->ni", rot, tool_site[:, 3:]), out=out[:, 3:])
-    return out
+    n = len(rot)
+    # force and torque rows rotated in one call: (n, 2, 3) rows, each sum in the order of "nij,nj->ni"
+    rotated = np.einsum("nij,nkj->nki", rot, tool_site.reshape(n, 2, 3)).reshape(n, 6)
+    return np.negative(rotated, out=np.empty((n, 6)) if out is None else out)
 
 
 class LowPass:

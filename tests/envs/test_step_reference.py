@@ -22,6 +22,7 @@ from lerobot_forcemap.envs.demonstrators import make_demonstrator
 from lerobot_forcemap.envs.physics import BlockStepper
 from lerobot_forcemap.envs.robots.parallel_gripper import PARALLEL_GRIPPER
 from lerobot_forcemap.envs.robots.three_finger_gripper import THREE_FINGER_GRIPPER
+from lerobot_forcemap.envs.sensing import Payload, reaction_wrench_base
 from lerobot_forcemap.geometry import quat_normalize, quat_to_matrix
 
 from . import reference_step as R
@@ -225,6 +226,25 @@ def test_quaternion_helpers_equal_the_reference():
             q = rng.normal(size=shape) * scale
             assert_same(quat_to_matrix(q), R.quat_to_matrix(q), f"quat_to_matrix {shape}")
             assert_same(quat_normalize(q), R.quat_normalize(q), f"quat_normalize {shape}")
+
+
+def test_reaction_wrench_equals_the_reference():
+    """``sensing.reaction_wrench_base`` (the rows' matrices by ``quat_rows_to_matrix``, force and torque
+    rotated in one ``einsum``) equals the reference's, written into a strided block or returned."""
+    rng = np.random.default_rng(2)
+    payload = Payload(mass=0.8, com_site=np.array([0.003, -0.01, 0.07]))
+    base_rot_inv = quat_to_matrix(quat_normalize(np.array([0.9, 0.1, -0.2, 0.3]))).T
+    for scale in (1e-3, 1.0, 1e3):
+        rows = rng.normal(size=(25, 14)) * scale  # [raw wrench (6) | quaternion (4) | other sensors]
+        rows[:, 6:10] = quat_normalize(rows[:, 6:10])
+        bias = rng.normal(size=6) * scale
+        for rot_inv in (None, base_rot_inv):
+            expected = R.reaction_wrench_base(rows[:, :6], rows[:, 6:10], payload, bias, rot_inv)
+            block = np.full((25, 9), np.nan)
+            reaction_wrench_base(rows[:, :6], rows[:, 6:10], payload, bias, rot_inv, out=block[:, :6])
+            assert_same(block[:, :6].copy(), expected, f"scale {scale}, into a block")
+            got = reaction_wrench_base(rows[:, :6], rows[:, 6:10], payload, bias, rot_inv)
+            assert_same(got, expected, f"scale {scale}, returned")
 
 
 def test_gripper_openings_of_one_configuration_equal_the_vectorised_path():
