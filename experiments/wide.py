@@ -98,7 +98,7 @@ def force_task_cells(task: str, n: int, others: int, demos) -> list[Cell]:
     fm = "forcemap"
     no_fb = ("force_feedback=false",)
     return [
-        _row("wide", task, "defaults", "package defaults (k = 0.8 K_demo, force feedback 7 N)",
+        _row("wide", task, "defaults", "package defaults (k = 0.8 K_demo, force feedback 6.5 N + depth)",
              _jobs(task, "defaults", fm, n, WIDE_SEED0, demos, env=env), {"overrides": []}),
         _row("wide", task, "defaults_no_feedback", "package defaults without the feedback",
              _jobs(task, "defaults_no_feedback", fm, others, WIDE_SEED0, demos, overrides=no_fb, env=env),
@@ -189,8 +189,7 @@ def run(
     cells = [c for t in FORCE_TASKS for c in force_task_cells(t, n, others, demos)]
     cells += [c for t in GRASP_TASKS for c in grasp_cells(t, n, others, demos)]
     cells += stiffness_cells(stiffness_n, max(2, stiffness_n // 2))
-    if tasks:
-        cells = [c for c in cells if c.task in tasks]
+    cells = [c for c in cells if c.jobs and (not tasks or c.task in tasks)]  # --others 0: no such rows
     cells.sort(key=_priority)
     if cached_only:
         cells = [c for c in cells if _cached(c, s.workdir)]

@@ -50,7 +50,7 @@ SKILL_TENSORS = (
     "anchor_initial_poses",
 )
 #: the force feedback's arrays (float64; present when the fit found contact, ``n_force_profile`` > 0)
-PROFILE_TENSORS = ("force_profile", "force_normal")
+PROFILE_TENSORS = ("force_profile", "force_normal", "force_depth")
 #: the one parameter LeRobot's optimiser needs; its value is never used
 DUMMY_PARAMETER = "closed_form_dummy"
 #: LeRobot's pre-/post-processor pipelines saved next to the policy (``make_pre_post_processors`` reads them)
@@ -79,10 +79,13 @@ def expected_tensors(config: ForceMapConfig) -> dict[str, tuple[tuple[int, ...],
 
 def profile_shapes(config: ForceMapConfig) -> dict[str, tuple[int, ...]]:
     """The feedback's tensors: the expected force along the contact normal per demonstration frame
-    (N) and the normal (unit, base frame); none when the fit stored no profile."""
+    (N), the normal (unit, base frame) and per frame the demonstrated force along the normal (N,
+    not dilated) and the depth past the first contact (m, NaN when unknown); none when the fit
+    stored no profile."""
     if not config.n_force_profile:
         return {}
-    return {"force_profile": (config.n_force_profile,), "force_normal": (3,)}
+    n = config.n_force_profile
+    return {"force_profile": (n,), "force_normal": (3,), "force_depth": (n, 2)}
 
 
 def read_config_json(path: Path) -> dict:

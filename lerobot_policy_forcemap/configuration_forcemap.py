@@ -67,7 +67,7 @@ RUNTIME_FIELDS = (
     "feedback_push_gain",
     "feedback_deadband",
     "feedback_max_push",
-    "feedback_depth_ratio",
+    "feedback_depth_gain",
 )
 #: filled in by the fit; every tensor of a checkpoint takes its shape from them
 FITTED_FIELDS = (
@@ -79,7 +79,6 @@ FITTED_FIELDS = (
     "env_state_names",
     "dataset_tasks",
     "demo_stiffness",
-    "demo_depth",
     "n_force_profile",
     "packed_features",
 )
@@ -157,17 +156,18 @@ class ForceMapConfig(PreTrainedConfig):
         force_feedback: correct the target along the demonstration's contact normal so that the
             measured reaction stays near min(force_budget, the demonstrated force) (a bounded
             admittance, ``lerobot_forcemap.skill.feedback``; needs ``force_key`` in the observation).
-        force_budget: N, the most force the feedback lets through in contact (sim default 7 N: more
-            than the button's 6.4 N switch force and erase's 3 N, below the button's 8 N stop).
+        force_budget: N, the force the feedback holds in contact (F_ref = min(budget, the demonstrated
+            force)), and where the depth law reads the demonstration's depth (sim default 6.5 N: the
+            press button's switch force at its nominal spring; erase needs 3 N on the felt).
         feedback_lift_gain, feedback_push_gain: m/(N s), lifting above / pushing below the reference;
             feedback_deadband: N; feedback_max_push: m, the most the feedback may press past the map.
-        feedback_depth_ratio: > 0 raises the budget (10 N/s, up to the demonstrated force) while, in a
-            hold, the TCP has gone less than this fraction of the demonstration's depth past its first
-            contact (``demo_depth``; reads ``robot_pose_key``); 0: the budget is fixed.
+        feedback_depth_gain: 1/s, > 0: while pressing into an expected contact, the TCP is driven to
+            the depth past the contact's origin that the demonstration had when its force reached
+            force_budget (a stiffer object gets the force that takes, up to the demonstrated one);
+            reads ``robot_pose_key``. 0: the force law alone (the budget bounds the force).
         fps, n_segments, segment_n_nodes, segment_n_gripper_nodes, segment_anchors, env_state_names,
-            dataset_tasks, demo_stiffness (N/m, 0: unknown), demo_depth (m, how far the measured TCP
-            went along the contact normal past the first contact; 0: unknown), n_force_profile (frames of the expected
-            force profile): filled in by the fit (leave them at their defaults); the checkpoint's
+            dataset_tasks, demo_stiffness (N/m, 0: unknown), n_force_profile (frames of the force
+            profile): filled in by the fit (leave them at their defaults); the checkpoint's
             tensors take their shapes from them.
         packed_features: filled in by the fit: ``{feature: positions in observation.state}`` of the
             features a ``lerobot-record`` dataset packed into ``observation.state``; observations are
@@ -249,7 +249,6 @@ class ForceMapConfig(PreTrainedConfig):
     env_state_names: list[str] = field(default_factory=list)
     dataset_tasks: list[str] = field(default_factory=list)
     demo_stiffness: float = 0.0
-    demo_depth: float = 0.0
     n_force_profile: int = 0
     packed_features: dict[str, list[int]] = field(default_factory=dict)
     check_task: bool = True
@@ -257,12 +256,12 @@ class ForceMapConfig(PreTrainedConfig):
 
     # ---- force feedback at execution
     force_feedback: bool = True
-    force_budget: float = 7.0
+    force_budget: float = 6.5
     feedback_lift_gain: float = 2e-3
     feedback_push_gain: float = 1e-2
     feedback_deadband: float = 0.5
     feedback_max_push: float = 0.015
-    feedback_depth_ratio: float = 0.0
+    feedback_depth_gain: float = 4.0
 
     # ---- LeRobot plumbing
     normalization_mapping: dict[str, NormalizationMode] = field(
@@ -398,8 +397,7 @@ _RULES = {
     "control_fps": partial(check_real, low=1e-3, none_ok=True, unit="Hz"),
     "stiffness_from_demo": partial(check_real, low=0.0, low_open=True, none_ok=True),
     "demo_stiffness": partial(check_real, low=0.0, unit="N/m"),
-    "demo_depth": partial(check_real, low=0.0, unit="m"),
-    "feedback_depth_ratio": partial(check_real, low=0.0),
+    "feedback_depth_gain": partial(check_real, low=0.0, unit="1/s"),
     "n_force_profile": partial(check_int, low=0),
     # fitted sizes: one entry per segment, checked against n_segments once fitted
     "segment_n_nodes": partial(check_int_list, low=3, non_empty=False),

@@ -160,7 +160,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         """Fit from :class:`~lerobot_forcemap.skill.episodes.EpisodeArrays` (no LeRobot dataset needed);
         ``tasks``: their task strings (an env asking for another task is refused, ``check_task``);
         ``measured``: the first episode's measured TCP positions ``(T, 3)`` (m), from which the
-        demonstration's stiffness is read (None: ``stiffness`` is used as it is)."""
+        demonstration's stiffness and depth are read (None: ``stiffness`` is used as it is, no depth law)."""
         cfg = self.config
         profile = _demo_profile(episodes[0], measured, fps, cfg.f_contact)
         cfg.demo_stiffness = profile.stiffness if profile is not None and profile.stiffness > 0 else 0.0
@@ -170,7 +170,6 @@ class ForceMapPolicy(PreTrainedPolicy):
             cfg.demo_stiffness = 0.0
             raise
         cfg.n_force_profile = 0 if profile is None else len(profile.expected)
-        cfg.demo_depth = profile.depth if profile is not None and profile.depth > 0 else 0.0
         cfg.fps = float(fps)
         cfg.n_segments = skill.n_segments
         cfg.segment_n_nodes = [len(s.nodes) for s in skill.segments]
@@ -195,7 +194,8 @@ class ForceMapPolicy(PreTrainedPolicy):
         if skill is not None:
             arrays = dict(skill.flat_arrays())
             if profile is not None:
-                arrays.update(force_profile=profile.expected, force_normal=profile.normal)
+                depth = np.column_stack([profile.along, profile.depth])
+                arrays.update(force_profile=profile.expected, force_normal=profile.normal, force_depth=depth)
             for name, array in arrays.items():
                 tensor = torch.from_numpy(np.ascontiguousarray(array, dtype=np.float64)).to(device)
                 self.register_buffer(name, tensor, persistent=True)
@@ -329,7 +329,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         if feedback is not None:
             cfg, n = self.config, len(actions)
             measured = None
-            if cfg.feedback_depth_ratio > 0 and cfg.robot_pose_key in batch:
+            if cfg.feedback_depth_gain > 0 and cfg.robot_pose_key in batch:
                 measured = _rows(batch, cfg.robot_pose_key, n)[:, :3]
             actions[:, :3] = feedback.step(actions[:, :3], _rows(batch, cfg.force_key, n), measured)
         self._step += 1
@@ -350,11 +350,14 @@ class ForceMapPolicy(PreTrainedPolicy):
                 )
                 self._warned_no_force = True
             return None
+        along_depth = self.get_buffer("force_depth").detach().cpu().numpy()
         profile = ForceProfile(
             expected=self.get_buffer("force_profile").detach().cpu().numpy(),
             normal=self.get_buffer("force_normal").detach().cpu().numpy(),
             stiffness=cfg.demo_stiffness,
-            depth=cfg.demo_depth if cfg.demo_depth > 0 else float("nan"),
+            along=along_depth[:, 0],
+            depth=along_depth[:, 1],
+            contact_force=cfg.f_contact,
         )
         gains = FeedbackGains(
             budget=cfg.force_budget,
@@ -362,7 +365,7 @@ class ForceMapPolicy(PreTrainedPolicy):
             push_gain=cfg.feedback_push_gain,
             deadband=cfg.feedback_deadband,
             max_push=cfg.feedback_max_push,
-            depth_ratio=cfg.feedback_depth_ratio,
+            depth_gain=cfg.feedback_depth_gain,
         )
         self._feedback = ForceFeedback(profile, gains, cfg.fps, self.clock_hz, n)
         return self._feedback

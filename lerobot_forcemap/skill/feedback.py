@@ -9,7 +9,12 @@ Fit time (:func:`force_profile`, from one demonstration):
   over +-``dilate_s`` (a contact a little earlier or later is still expected);
 * the demonstration's stiffness ``K_demo`` (N/m): the median over contact frames of
   ``f . n / ((x_measured - x_commanded) . n)``, i.e. the controller the demonstration was recorded
-  with, read from its data (NaN without a measured pose or contact).
+  with, read from its data (NaN without a measured pose or contact);
+* the demonstration's depth ``depth (T,)``: how far its measured TCP had gone along -n past the
+  contact's origin by each frame. The origin is where the straight force-position line through the
+  crossings of ``f_contact`` and ``2 f_contact`` (interpolated between frames) reaches zero force:
+  unlike the first frame in contact, it does not move with the contact's stiffness, its preload or
+  where the frames fell.
 
 Each control step (:class:`ForceFeedback`, one state per batch row; ``f`` the measured reaction minus
 a self-tare of the first ``tare_steps`` observations, ``F_ref(t) = min(budget, expected(t))``,
@@ -26,7 +31,21 @@ itself is nearly still along n (``-hold_speed <= v <= ratchet_speed``): the push
 map's own approach, never chases a surface that is not there, and lets a deliberate lift-off go.
 A push no longer wanted decays with ``tau``. In steady contact the force settles within
 ``F_ref +- deadband`` whatever the controller's stiffness, as long as the bounds are not reached.
-Units: m, s, N; gains m/(N s).
+
+The depth law (``depth_gain`` > 0, with the measured TCP positions and a demonstration whose
+depth is known) makes the depth, not the force, the target while pressing in: ``depth_ref`` is
+how deep the demonstration was when its force reached the budget. A contact's origin is found
+at run time as at fit time; while the contact is expected and held (the map not leaving faster
+than ``ratchet_speed``, or ``depth_ref`` not yet reached in this contact):
+
+    depth < depth_ref:   the target moves along n at v = depth_gain (depth - depth_ref) (at most
+                         v_push in, whatever the map does), never less pushed in than the force
+                         law's u, lifting only above the demonstrated force expected(t)
+    depth > depth_ref:   the map's own approach along n is cancelled (no deeper with the map)
+
+A stiffer object than the demonstration's is pressed as deep as the demonstration was at the
+budget, with the force that takes (up to the demonstrated force); a softer one gets the budget,
+as before. Units: m, s, N; gains m/(N s), ``depth_gain`` 1/s.
 """
 
 from __future__ import annotations
@@ -49,16 +68,59 @@ def dilate(x: Array, half_width: int) -> Array:
     return np.lib.stride_tricks.sliding_window_view(pad, 2 * half_width + 1).max(axis=1)
 
 
+def _crossing(x0: Array, x1: Array, f0: Array, f1: Array, level: float) -> Array:
+    """Where the force passed ``level`` between two samples (linear in between; ``x1`` if it did
+    not rise)."""
+    w = np.clip((level - f0) / np.where(f1 > f0, f1 - f0, 1.0), 0.0, 1.0)
+    return np.where(f1 > f0, x0 + w * (x1 - x0), x1)
+
+
 @dataclass(frozen=True)
 class ForceProfile:
     """``expected (T,)`` N at frame times k / fps; ``normal (3,)`` unit, base frame of the
-    demonstration; ``stiffness`` K_demo N/m and ``depth`` m, how far the measured TCP went along
-    -n after the first contact (NaN when the data cannot tell)."""
+    demonstration; ``stiffness`` K_demo N/m (NaN when the data cannot tell); ``along (T,)`` N, the
+    demonstrated reaction along n (not dilated); ``depth (T,)`` m, how far the measured TCP had gone
+    along -n past the contact's origin by each frame (module docstring; the crossings of
+    ``contact_force`` N and twice that), 0 before, NaN without a measured pose or when the force
+    never reached ``2 contact_force``."""
 
     expected: Array
     normal: Array
     stiffness: float
-    depth: float = float("nan")
+    along: Array
+    depth: Array
+    contact_force: float
+
+    def depth_at(self, force: float) -> float:
+        """The demonstration's depth (m) when its force along n first reached ``min(force, its max)``,
+        interpolated between the frames around that crossing (a contact stiffening within one frame
+        jumps past the level); NaN when its depth is unknown or still 0 there."""
+        level = min(force, float(self.along.max()))
+        k = int(np.argmax(self.along >= level))
+        depth = float(self.depth[k])
+        if k > 0 and self.along[k] > self.along[k - 1]:
+            w = (level - self.along[k - 1]) / (self.along[k] - self.along[k - 1])
+            depth = float(self.depth[k - 1] + min(max(w, 0.0), 1.0) * (self.depth[k] - self.depth[k - 1]))
+        return depth if depth > 0 else float("nan")
+
+
+def _contact_origin(x_lo: Array, x_hi: Array) -> Array:
+    """Where the straight force-position line through the crossings of a level (at ``x_lo``) and
+    twice that level (at ``x_hi``) reaches zero force: a depth origin that does not move with the
+    contact's stiffness or preload, nor with how the first samples fell."""
+    return x_lo + (x_lo - x_hi)
+
+
+def _depth_curve(x: Array, along: Array, level: float) -> Array:
+    """``depth (T,)`` of :class:`ForceProfile` from the TCP along n ``x (T,)`` and the force along n
+    (NaN when the force never reached ``2 level``)."""
+    k_lo, k_hi = int(np.argmax(along > level)), int(np.argmax(along > 2 * level))
+    if along[k_hi] <= 2 * level or k_lo == 0:
+        return np.full(len(x), np.nan)
+    x_lo = _crossing(x[k_lo - 1], x[k_lo], along[k_lo - 1], along[k_lo], level)
+    x_hi = _crossing(x[k_hi - 1], x[k_hi], along[k_hi - 1], along[k_hi], 2 * level)
+    went = np.where(np.arange(len(x)) >= k_lo, _contact_origin(x_lo, x_hi) - x, 0.0)
+    return np.maximum.accumulate(np.maximum(went, 0.0))
 
 
 def force_profile(
@@ -79,27 +141,24 @@ def force_profile(
     normal = total / norm if contact.any() and norm > 1e-9 else np.array([0.0, 0.0, 1.0])
     along = np.maximum(f @ normal, 0.0)
     expected = dilate(along, int(round(dilate_s * fps)))
-    stiffness = depth = float("nan")
+    stiffness = float("nan")
+    depth = np.full(len(f), np.nan)
     if measured is not None:
         x = np.asarray(measured, dtype=np.float64) @ normal
         lag = x - np.asarray(commanded, dtype=np.float64) @ normal
         ok = contact & (lag > 1e-4)
         if ok.any():
             stiffness = float(np.median(along[ok] / lag[ok]))
-            first = int(np.argmax(contact))
-            depth = float(np.max(x[first] - x[first:]))
-    return ForceProfile(expected=expected, normal=normal, stiffness=stiffness, depth=depth)
+        depth = _depth_curve(x, along, f_contact)
+    return ForceProfile(expected, normal, stiffness, along, depth, float(f_contact))
 
 
 @dataclass(frozen=True)
 class FeedbackGains:
-    """The law's settings (module docstring): N, m, s; gains m/(N s). ``depth_ratio`` > 0 raises the
-    budget by ``escalation_rate`` N/s while, in a hold (the map nearly still, in contact), the TCP has
-    gone less than ``depth_ratio`` x the demonstration's depth past its first contact (a stiffer
-    object than the demonstration's needs more force to move as far); never above the
-    demonstrated force, and back to ``budget`` once that depth is reached. 0: a fixed budget."""
+    """The law's settings (module docstring): N, m, s; gains m/(N s), ``depth_gain`` 1/s (0: the
+    force law alone, the budget a hard bound)."""
 
-    budget: float = 7.0
+    budget: float = 6.5
     lift_gain: float = 2e-3
     push_gain: float = 1e-2
     deadband: float = 0.5
@@ -112,8 +171,7 @@ class FeedbackGains:
     hold_speed: float = 0.005
     ratchet_speed: float = 0.01
     tare_steps: int = 2
-    depth_ratio: float = 0.0
-    escalation_rate: float = 10.0
+    depth_gain: float = 4.0
 
 
 class ForceFeedback:
@@ -123,11 +181,13 @@ class ForceFeedback:
         self.profile, self.gains, self.fps, self.dt = profile, gains, fps, 1.0 / control_hz
         self.k = 0
         self.u = np.zeros(n)
-        self.budget = np.full(n, gains.budget)
-        self._contact_at = np.full(n, np.nan)  # the TCP along n at the first contact
-        self._reached = np.zeros(n, dtype=bool)  # went the demonstration's depth fraction
+        self.depth_ref = profile.depth_at(gains.budget) if gains.depth_gain > 0 else float("nan")
+        self._lo_at = np.full(n, np.nan)  # the TCP along n where this contact passed contact_force
+        self._contact_at = np.full(n, np.nan)  # this contact's depth origin (_contact_origin)
+        self._reached = np.zeros(n, dtype=bool)  # this contact went depth_ref deep
         self._tare_sum = np.zeros((n, 3))
         self._prev: Array | None = None
+        self._last: tuple[Array, Array] | None = None  # the TCP along n and the force, last step
 
     def expected(self, t: float) -> float:
         """The demonstrated force along n around ``t`` (N; the last frame's value after its end)."""
@@ -136,7 +196,7 @@ class ForceFeedback:
 
     def reference(self, t: float) -> Array:
         """``F_ref(t)`` per row, N: ``min(budget, expected(t))``."""
-        return np.minimum(self.budget, self.expected(t))
+        return np.minimum(self.gains.budget, np.full(len(self.u), self.expected(t)))
 
     def offset(self) -> Array:
         """The current correction ``(n, 3)`` m added to the targets."""
@@ -145,33 +205,70 @@ class ForceFeedback:
     def step(self, targets: Array, force: Array, measured: Array | None = None) -> Array:
         """Corrected target positions ``(n, 3)`` from the map's ``targets (n, 3)``, the measured
         reaction ``force (n, >= 3)`` (N, base frame) and the measured TCP positions ``(n, 3)`` (m;
-        only read with ``depth_ratio`` > 0); advances one control step."""
+        None: the force law alone); advances one control step."""
         g, n_vec = self.gains, self.profile.normal
         f = self._tared(np.asarray(force, dtype=np.float64)[:, :3])
-        f_ref = self.reference(self.k * self.dt)
+        t = self.k * self.dt
+        f_ref = self.reference(t)
         f_n = f @ n_vec
-        e = f_n - f_ref
         speed = np.zeros(len(targets)) if self._prev is None else (targets - self._prev) @ n_vec / self.dt
         self._prev = np.array(targets, dtype=np.float64)
         may_push = (
             (g.max_push > 0) & (f_ref > g.f_touch) & (f_n > g.f_touch)
             & (speed >= -g.hold_speed) & (speed <= g.ratchet_speed)
         )  # fmt: skip
-        if measured is not None and self.gains.depth_ratio > 0:
-            self._escalate(np.asarray(measured, dtype=np.float64) @ n_vec, f_n, may_push)
-        self.u = self._advance(e, speed, may_push)
+        u = self._advance(f_n - f_ref, speed, may_push)
+        if measured is not None and np.isfinite(self.depth_ref):
+            u = self._depth_law(u, np.asarray(measured, dtype=np.float64) @ n_vec, f_n, speed, t)
+        self.u = u
         self.k += 1
         return targets + self.offset()
 
-    def _escalate(self, x: Array, f_n: Array, holding: Array) -> None:
-        """Raise the budget of the rows holding short of the demonstration's depth."""
+    def _depth_law(self, u: Array, x: Array, f_n: Array, speed: Array, t: float) -> Array:
+        """The force law's correction ``u`` overruled by the depth (module docstring): short of
+        ``depth_ref``, never less push than the depth servo's; past it, no deeper with the map."""
         g = self.gains
-        touching = f_n > g.f_touch
-        self._contact_at = np.where(np.isnan(self._contact_at) & touching, x, self._contact_at)
-        self._reached |= (self._contact_at - x) >= g.depth_ratio * self.profile.depth
-        grow = holding & ~self._reached & (self.expected(self.k * self.dt) > self.budget)
-        self.budget = np.where(grow, self.budget + g.escalation_rate * self.dt, self.budget)
-        self.budget = np.where(self._reached, g.budget, self.budget)
+        depth, held = self._depth(x, f_n, speed, t)
+        depth = np.nan_to_num(depth)
+        shallow = held & (depth < self.depth_ref)
+        u = np.where(shallow, np.minimum(u, self._servo(depth, f_n - self.expected(t), speed)), u)
+        deep = held & (depth > self.depth_ref) & (speed < -g.hold_speed) & (f_n > g.f_touch)
+        return np.where(deep, np.minimum(np.maximum(u, self.u - speed * self.dt), g.max_lift), u)
+
+    def _depth(self, x: Array, f_n: Array, speed: Array, t: float) -> tuple[Array, Array]:
+        """(depth past this contact's origin, m, NaN before it is known; the rows whose depth is held):
+        a contact starts where the demonstration expects one and the force passes the profile's
+        contact force, its origin is known once the force passes twice that; it ends when the
+        demonstration expects none and the force is gone. Held: in a contact while the map is not
+        leaving the surface faster than ``ratchet_speed``, or ``depth_ref`` is not reached yet."""
+        g = self.gains
+        expected = self.expected(t) > g.f_touch
+        level = self.profile.contact_force
+        x0, f0 = (x, f_n) if self._last is None else self._last
+        self._last = (x, f_n)
+        start = np.isnan(self._lo_at) & expected & (f_n > level)
+        self._lo_at = np.where(start, _crossing(x0, x, f0, f_n, level), self._lo_at)
+        start = np.isnan(self._contact_at) & ~np.isnan(self._lo_at) & (f_n > 2 * level)
+        origin = _contact_origin(self._lo_at, _crossing(x0, x, f0, f_n, 2 * level))
+        self._contact_at = np.where(start, origin, self._contact_at)
+        ended = (f_n < g.f_touch) & (not expected)
+        self._lo_at = np.where(ended, np.nan, self._lo_at)
+        self._contact_at = np.where(ended, np.nan, self._contact_at)
+        depth = self._contact_at - x
+        self._reached = ~ended & (self._reached | (depth >= self.depth_ref))
+        held = ~np.isnan(self._contact_at) & expected & ((speed <= g.ratchet_speed) | ~self._reached)
+        return depth, held
+
+    def _servo(self, depth: Array, over: Array, speed: Array) -> Array:
+        """The depth servo's correction: the target moves along n at ``depth_gain`` x (depth -
+        depth_ref), whatever the map does, lifting while the force exceeds the demonstrated one
+        (``over`` N above it)."""
+        g = self.gains
+        v = np.clip(g.depth_gain * (depth - self.depth_ref), -g.v_push, g.v_max)
+        v = np.where(
+            over > g.deadband, np.maximum(v, np.minimum(g.lift_gain * (over - g.deadband), g.v_max)), v
+        )
+        return np.clip(self.u + (v - speed) * self.dt, -g.max_push, g.max_lift)
 
     def _tared(self, f: Array) -> Array:
         if self.k < self.gains.tare_steps:

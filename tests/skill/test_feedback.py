@@ -77,29 +77,47 @@ def test_feedback_pushes_in_where_the_map_stops_short():
     assert -fb.u[0] <= FeedbackGains().max_push + 1e-12  # bounded
 
 
-def _stiffer_object(
-    depth_ratio: float, k_env: float = 6000.0, steps: int = 150
-) -> tuple[float, float, float]:
-    """The demonstration's path against a 3x stiffer contact; returns (the farthest the TCP went past
-    the first contact, the demonstration's depth, the last force)."""
+def test_profile_reads_the_depth_at_a_force_between_frames():
+    force, cmd, measured = _demo()
+    p = force_profile(force, cmd, measured, FPS)
+    # a 2000 N/m contact: the TCP is F / 2000 m past the surface at force F; the origin of the depth
+    # (the force-position line through 2 N and 4 N, at zero force) is the surface
+    assert abs(p.depth_at(7.0) - 7.0 / 2000.0) < 1e-4
+    assert p.depth_at(1e6) == p.depth[np.argmax(p.along)]  # above its max: the depth at the max
+    assert np.isnan(force_profile(force, cmd, None, FPS).depth_at(7.0))  # no measured pose
+
+
+def _press(k_ctrl: float, k_env: float, depth_gain: float, steps: int = 150) -> tuple[float, float, float]:
+    """The demonstration's path (recorded on 2000 N/m behind 2000 N/m) replayed with the feedback
+    against a contact of stiffness ``k_env`` behind a controller of stiffness ``k_ctrl``; returns
+    (how far past the surface the TCP holds at the end, the depth the demonstration had at the
+    budget, the last force)."""
     force, cmd, measured = _demo()
     profile = force_profile(force, cmd, measured, FPS)
-    fb = ForceFeedback(profile, FeedbackGains(tare_steps=0, depth_ratio=depth_ratio), FPS, FPS, 1)
-    f, x, first, went = np.zeros((1, 3)), cmd[:1].copy(), None, 0.0
+    fb = ForceFeedback(profile, FeedbackGains(tare_steps=0, depth_gain=depth_gain), FPS, FPS, 1)
+    f, x = np.zeros((1, 3)), cmd[:1].copy()
     for t in range(steps):
         target = fb.step(cmd[min(t, len(cmd) - 1)][None], f, x)
-        x = target.copy()
-        x[0, 2] = target[0, 2] * 2000.0 / (2000.0 + k_env) if target[0, 2] < 0 else target[0, 2]
+        x = target.copy()  # the TCP settles where the controller and the contact balance
+        if target[0, 2] < 0:
+            x[0, 2] = target[0, 2] * k_ctrl / (k_ctrl + k_env)
         f = np.array([[0.0, 0.0, max(-x[0, 2], 0.0) * k_env]])
-        if first is None and f[0, 2] > 1.0:
-            first = x[0, 2]
-        went = max(went, 0.0 if first is None else first - x[0, 2])
-    return went, profile.depth, f[0, 2]
+    return -x[0, 2], fb.depth_ref, f[0, 2]
 
 
-def test_depth_ratio_raises_the_budget_until_the_demonstrated_depth():
-    went, depth, _ = _stiffer_object(0.0)
-    assert went < 0.3 * depth  # the fixed budget stops far short on a stiffer object
-    went, depth, force = _stiffer_object(0.3)
-    assert went >= 0.3 * depth - 1e-3  # pressed on until it went as far
-    assert abs(force - FeedbackGains().budget) <= FeedbackGains().deadband + 0.5  # then back to the budget
+def test_the_depth_law_presses_a_stiffer_object_as_deep_as_the_demonstration():
+    budget = FeedbackGains().budget
+    for k_ctrl in (1000.0, 4000.0):  # a soft and a stiff controller
+        went, _, _ = _press(k_ctrl, 6000.0, depth_gain=0.0)
+        assert went < 0.5 * budget / 2000.0  # the force law alone holds the budget: far short
+        went, depth, force = _press(k_ctrl, 6000.0, depth_gain=FeedbackGains().depth_gain)
+        assert abs(went - depth) < 2e-4, (k_ctrl, went, depth)  # as deep as the demonstration went
+        assert force > 2 * budget  # with the force that takes, more than the budget
+
+
+def test_the_depth_law_holds_the_budget_on_a_softer_object():
+    budget, deadband = FeedbackGains().budget, FeedbackGains().deadband
+    for k_ctrl in (1000.0, 4000.0):
+        went, depth, force = _press(k_ctrl, 1000.0, depth_gain=FeedbackGains().depth_gain)
+        assert went > depth  # deeper than the demonstration: the budget is reached later
+        assert abs(force - budget) <= deadband + 0.5, (k_ctrl, force)
