@@ -34,7 +34,9 @@ A push no longer wanted decays with ``tau``. In steady contact the force settles
 
 The depth law (``depth_gain`` > 0, with the measured TCP positions and a demonstration whose
 depth is known) makes the depth, not the force, the target while pressing in: ``depth_ref`` is
-how deep the demonstration was when its force reached the budget. A contact's origin is found
+how deep the demonstration was when its force reached the budget. A demonstration that went more
+than ``max_push`` past the contact's origin before that moved the object (a push, a slide), and
+that travel is no compliance to reproduce: the law stays off (``depth_ref`` NaN). A contact's origin is found
 at run time as at fit time; while the contact is expected and held (the map not leaving faster
 than ``ratchet_speed``, or ``depth_ref`` not yet reached in this contact):
 
@@ -181,7 +183,9 @@ class ForceFeedback:
         self.profile, self.gains, self.fps, self.dt = profile, gains, fps, 1.0 / control_hz
         self.k = 0
         self.u = np.zeros(n)
-        self.depth_ref = profile.depth_at(gains.budget) if gains.depth_gain > 0 else float("nan")
+        depth_ref = profile.depth_at(gains.budget) if gains.depth_gain > 0 else float("nan")
+        # deeper than the feedback may press past the map: the object moved (module docstring)
+        self.depth_ref = depth_ref if depth_ref <= gains.max_push else float("nan")
         self._lo_at = np.full(n, np.nan)  # the TCP along n where this contact passed contact_force
         self._contact_at = np.full(n, np.nan)  # this contact's depth origin (_contact_origin)
         self._reached = np.zeros(n, dtype=bool)  # this contact went depth_ref deep

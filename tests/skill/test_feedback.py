@@ -121,3 +121,15 @@ def test_the_depth_law_holds_the_budget_on_a_softer_object():
         went, depth, force = _press(k_ctrl, 1000.0, depth_gain=FeedbackGains().depth_gain)
         assert went > depth  # deeper than the demonstration: the budget is reached later
         assert abs(force - budget) <= deadband + 0.5, (k_ctrl, force)
+
+
+def test_the_depth_law_stays_off_where_the_demonstration_moved_the_object():
+    # a soft contact (200 N/m behind the controller): the budget is reached 3 cm past the origin, a
+    # travel no press makes (a pushed object slides); a stiff one stays in reach
+    for k_env, on in ((200.0, False), (6000.0, True)):
+        force, cmd, measured = _demo(k_env=k_env, depth=0.06)
+        profile = force_profile(force, cmd, measured, FPS)
+        gains = FeedbackGains(tare_steps=0)
+        assert bool(profile.depth_at(gains.budget) > gains.max_push) is not on
+        fb = ForceFeedback(profile, gains, FPS, FPS, 1)
+        assert bool(np.isfinite(fb.depth_ref)) is on, (k_env, fb.depth_ref)
