@@ -20,6 +20,7 @@ from .events import (
     mask_to_intervals,
 )
 from .guiding import GuidingModel, GuidingSettings, fit_guiding_force, predict_guiding_force
+from .held import without_held_weight
 from .reaction import (
     ContactSurface,
     ReactionEstimate,
@@ -49,4 +50,5 @@ __all__ = [
     "mask_to_intervals",
     "predict_guiding_force",
     "rms_ratio",
+    "without_held_weight",
 ]

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lerobot_forcemap import layout
-from lerobot_forcemap.contact import mask_to_intervals
+from lerobot_forcemap.contact import mask_to_intervals, without_held_weight
 from lerobot_forcemap.skill.params import Columns, SkillParams
 
 __all__ = [
@@ -41,8 +41,9 @@ class EpisodeArrays:
     gripper_force (T,) N along the gripper coordinate (negative = towards open) or None; env_state
     (T, E) or None; joints (T, J) or None; finger_force (T, F) or None (raw, for segmentation);
     segment_labels (T,) or None (the dataset's ``segment_column``); wrench (T, 3) N: the measured wrist
-    wrench when ``force`` is the contact reaction (the segmentation's wrist-force stream; None: it is
-    ``force``); contact (T,) bool: the dataset's per-frame contact flag, or None.
+    wrench when ``force`` is not the wrench itself (the contact reaction, or the wrench without a held
+    object's weight; the segmentation's wrist-force stream; None: it is ``force``); contact (T,) bool:
+    the dataset's per-frame contact flag, or None.
     """
 
     episode: int
@@ -112,6 +113,10 @@ def episodes_from_columns(
     Needs ``episode_index``, ``timestamp``, ``pose_key`` (≥ 7 wide: x y z qw qx qy qz) and
     ``gripper_key``; uses ``force_key`` (first 3), ``finger_force_key``, ``env_state_key``,
     ``joints_key`` and ``segment_column`` when present. ``features``: LeRobot's feature dict.
+
+    The force points read ``reaction_key`` when the dataset has it, else the wrench; then, on the
+    frames where the fingers hold something (finger force above ``gripper_f_contact``), without the
+    held object's downward pull (``contact.without_held_weight``): its weight is no contact.
     """
     _check_features(columns, features, params.columns)
     episode_column = np.asarray(columns["episode_index"]).reshape(-1).astype(np.int64)
@@ -119,7 +124,7 @@ def episodes_from_columns(
     missing = [e for e in episodes if e not in available]
     if missing:
         raise ValueError(f"episodes: episode(s) {missing} not in the dataset (it has {available})")
-    reader = _EpisodeReader(columns, features, params.columns)
+    reader = _EpisodeReader(columns, features, params.columns, float(params.gripper.gripper_f_contact))
     return [reader.episode(int(e), np.flatnonzero(episode_column == e)) for e in episodes]
 
 
@@ -182,8 +187,11 @@ def _check_finite(name: str, episode: int, values: Array, frames: Frames) -> Non
 class _EpisodeReader:
     """Reads one episode's arrays out of the columns, feature by feature."""
 
-    def __init__(self, columns: Mapping[str, np.ndarray], features: Mapping[str, Any], c: Columns):
+    def __init__(
+        self, columns: Mapping[str, np.ndarray], features: Mapping[str, Any], c: Columns, holding_n: float
+    ):
         self.columns, self.features, self.c = columns, features, c
+        self.holding_n = holding_n  # the finger force (N) above which the gripper holds an object
         self.has_force = bool(c.force_key) and c.force_key in columns
         # with a contact reaction the force points read it, and the measured wrench stays beside it
         self.reacting = self.has_force and bool(c.reaction_key) and self._has(c.reaction_key)
@@ -219,11 +227,15 @@ class _EpisodeReader:
         pose = self._pose(e, rows, frames)
         gripper = self._col(c.gripper_key, rows)[:, c.gripper_index]
         _check_finite(c.gripper_key, e, gripper, frames)
-        force = self._force(e, rows, frames)
+        force, wrench = self._force(e, rows, frames), self._wrench(e, rows, frames)
         finger = self._checked(c.finger_force_key, e, rows, frames) if self._has(c.finger_force_key) else None
         gripper_force = (
             None if finger is None else finger_force_scalar(finger, self._names(c.finger_force_key))
         )
+        if wrench is None and gripper_force is not None and self.has_force:
+            holding = gripper_force < -self.holding_n
+            if holding.any():
+                force, wrench = without_held_weight(force, holding), force
         return EpisodeArrays(
             episode=e,
             times=times - times[0],
@@ -236,7 +248,7 @@ class _EpisodeReader:
             finger_force=finger,
             segment_labels=self._labels(e, rows, frames),
             has_force=self.has_force,
-            wrench=self._wrench(e, rows, frames),
+            wrench=wrench,
             contact=self._contact(e, rows, frames),
         )
 

@@ -51,9 +51,9 @@ class FitReport:
     episodes; changepoints: per episode (K+1,) frames; anchors: per segment; arm_fits, gripper_fits:
     the elastic-map fits; seconds: the fit's wall time; fps; contact_intervals_s: per episode (C, 2)
     [touch-down, lift-off] s from the dataset's contact column (empty without one);
-    guiding_share: per episode, the share of the measured wrench the force points do not use (RMS of
-    |measured − contact reaction| over RMS of |measured|), None when they use the measured wrench
-    itself; contacts: the first episode's contacts checked against the fitted nodes; boundary_gaps_m:
+    guiding_share: per episode, the share of the measured wrench the force points do not use (a
+    guiding hand, a held object's weight: RMS of |measured − force points' force| over RMS of
+    |measured|), None when they use the measured wrench itself; contacts: the first episode's contacts checked against the fitted nodes; boundary_gaps_m:
     per boundary, the distance between one segment's last node and the next one's first, in the
     demonstrated scene.
     """
