@@ -173,6 +173,7 @@ class SceneVariation:
         self._friction_geoms = np.union1d(self._geoms, _subtree_geoms(model, [self._table]))
         self._nominal = {
             "table_pos": model.body_pos[self._table].copy(),
+            "body_quat": model.body_quat[self._bodies].copy(),
             "solref": model.geom_solref[self._geoms, 0].copy(),
             "friction": model.geom_friction[self._friction_geoms, 0].copy(),
             "spring": model.jnt_stiffness[self._springs].copy(),
@@ -212,6 +213,7 @@ class SceneVariation:
         model.geom_solref[self._geoms, 0] = nom["solref"] / np.sqrt(d.contact_scale)
         model.geom_friction[self._friction_geoms, 0] = nom["friction"] * d.friction_scale
         model.jnt_stiffness[self._springs] = nom["spring"] * d.spring_scale
+        model.body_quat[self._bodies] = nom["body_quat"]  # turned from its nominal, not from last episode's
         self._move_scene(model, data, shift)
 
     def _move_scene(self, model: mujoco.MjModel, data: mujoco.MjData, shift: np.ndarray) -> None:

@@ -60,3 +60,15 @@ def test_stiffness_scale_and_the_level_are_checked():
             E.make("press", stiffness_scale=bad)
     with pytest.raises(ValueError, match=r"randomize: must be one of \['none', 'paper', 'wide'\]"):
         E.make("press", randomize="wider")
+
+
+def test_a_static_part_is_turned_from_its_nominal_orientation_every_episode():
+    """The press button's body is turned by this episode's yaw alone, whatever the env ran before."""
+    env = E.make("press", randomize="wide", render_mode=None)
+    model = env.unwrapped.model
+    for seed in (3, 4, 5):
+        _, info = env.reset(seed=seed)
+        yaw = info["variation"]["yaw"]
+        q = model.body_quat[model.body("button_base").id]
+        np.testing.assert_allclose(q, [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)], atol=1e-9)
+    env.close()

@@ -78,7 +78,6 @@ class GraspPushTask(GraspTask):
     def randomize_fixtures(self, model, rng) -> None:
         x = WALL_NOMINAL_X + (rng.uniform(-WALL_RANDOM_X, WALL_RANDOM_X) if rng is not None else 0.0)
         model.body_pos[self._wall_body] = [x, 0.0, 0.0]
-        model.body_quat[self._wall_body] = [1.0, 0.0, 0.0, 0.0]  # "wide" turns it from here
 
     def wall_edge_world(self) -> np.ndarray:
         """Centre of the wall's front-top edge (world, m)."""
