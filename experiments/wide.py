@@ -10,7 +10,8 @@ Writes ``results/wide.json`` and ``results/wide.md``. Two parts:
   demonstration, force feedback on; ``--episodes`` episodes, seeds dealt over the 10
   demonstrations), the same without the feedback, the earlier defaults (k = 3000 N/m, no feedback),
   the paper's tuned settings, hybrid force/position control and the learned baselines where a
-  checkpoint exists. The other rows run ``--others`` episodes.
+  checkpoint exists. The grasping tasks run the defaults on the demonstration object and on each
+  unseen object, ``--episodes`` episodes each. The other rows run ``--others`` episodes.
 * **stiffness**: the checkpoint of demonstration 0 with the package defaults, scenes as in the
   paper (``randomize="paper"``), with the controller's stiffness x0.5, x1 and x2 (env kwarg
   ``stiffness_scale``); press and erase also with the earlier defaults, for contrast.
@@ -119,16 +120,15 @@ def force_task_cells(task: str, n: int, others: int, demos) -> list[Cell]:
 
 
 def grasp_cells(task: str, n: int, others: int, demos) -> list[Cell]:
-    """The wide rows of a grasping task: the defaults per object (the unseen ones with ``others``
-    episodes), the paper's grasp settings on the demonstration object."""
+    """The wide rows of a grasping task: the defaults on every object (``n`` episodes each: the
+    targets hold on the unseen objects too), the paper's grasp settings on the demonstration object."""
     demo_obj, unseen = GRASP_TASKS[task]
     out = []
     for obj in (demo_obj, *unseen):
         env = {"randomize": "wide", "object": obj}
-        size = n if obj == demo_obj else others
         out.append(
             _row("grasp", task, "defaults", "package defaults",
-                 _jobs(task, "defaults", "forcemap", size, WIDE_SEED0, demos, env=env), {"overrides": []}, obj)
+                 _jobs(task, "defaults", "forcemap", n, WIDE_SEED0, demos, env=env), {"overrides": []}, obj)
         )  # fmt: skip
     env = {"randomize": "wide", "object": demo_obj}
     tuned = (*PAPER_LAW, *GRASP_OVERRIDES)
@@ -140,11 +140,11 @@ def grasp_cells(task: str, n: int, others: int, demos) -> list[Cell]:
     return out
 
 
-def stiffness_cells(n_force: int, n_grasp: int) -> list[Cell]:
-    """One checkpoint per task (demonstration 0) at controller stiffness x0.5, x1, x2."""
+def stiffness_cells(n: int) -> list[Cell]:
+    """One checkpoint per task (demonstration 0) at controller stiffness x0.5, x1, x2; ``n`` episodes
+    per cell."""
     out = []
     for task in (*FORCE_TASKS, *GRASP_TASKS):
-        n = n_grasp if task in GRASP_TASKS else n_force
         laws = [("defaults", ())] + ([("k3000", PAPER_LAW)] if task in ("press", "erase") else [])
         for method, ov in laws:
             for scale in STIFFNESS_SCALES:
@@ -191,7 +191,7 @@ def run(
     demos = s.demos
     cells = [c for t in FORCE_TASKS for c in force_task_cells(t, n, others, demos)]
     cells += [c for t in GRASP_TASKS for c in grasp_cells(t, n, others, demos)]
-    cells += stiffness_cells(stiffness_n, max(2, stiffness_n // 2))
+    cells += stiffness_cells(stiffness_n)
     cells = [c for c in cells if c.jobs and (not tasks or c.task in tasks)]  # --others 0: no such rows
     cells.sort(key=_priority)
     if cached_only:
@@ -244,7 +244,7 @@ def main(argv: list[str] | None = None) -> int:
         "--stiffness-episodes",
         type=int,
         default=10,
-        help="episodes per stiffness cell (default 10; grasping half)",
+        help="episodes per stiffness cell (default 10)",
     )
     p.add_argument(
         "--cached-only", action="store_true", help="report only the rows whose episodes all ran already"
