@@ -29,6 +29,10 @@ Placing (:func:`place_skill`), per segment s with stored nodes y_s:
      ``start_window`` seconds (when None: at ``START_BLEND_SPEED``, or its rotation at
      ``START_BLEND_TURN_RATE``, whichever takes longer): a new start deforms the path near the start
      only, since without objects the demonstrated path is where the task is.
+   The free orientations get the same field as a rotation (rotation vectors, base frame): none at
+   t = 0, at each free-anchored boundary the turn from the free side's orientation onto the anchored
+   side's, linear in time between knots, held after the last (a free lift after an anchored grasp
+   keeps the grasp's orientation: turning back would twist the object in hand).
    An anchored first segment whose start has to move to the robot gets the start displacement
    fading over ``start_window`` (None: over the segment), and an anchored segment followed by one
    anchored to another object bends its end to meet it (linearly along its time law); its contact
@@ -370,6 +374,7 @@ def _place(
     fixed = [bool(seg.anchor) and not prov[s] for s, seg in enumerate(base)]
     starts = np.concatenate([[0.0], np.cumsum([seg.duration for seg in base])])
     knot_t, knot_d = _free_knots(base, fixed, robot_pose, starts)
+    turn_t, turn_r = _free_turn_knots(base, fixed, starts)
     decay = start_window
     if not any(fixed):  # no anchored segment pins the path: a new start's displacement decays
         decay = start_window if start_window is not None else _start_blend_s(base[0], robot_pose)
@@ -380,10 +385,12 @@ def _place(
             out = _place_anchored(base, fixed, s, robot_pose, start_window)
         else:
             u, _ = _fade(seg, None)  # the first node stands for the segment's start, the last for its end
-            shift = _at(knot_t, knot_d, starts[s] + u * seg.duration)
-            out = replace(seg, nodes=seg.nodes + shift)
+            t = starts[s] + u * seg.duration
+            shift = _at(knot_t, knot_d, t)
+            turned = quat_multiply(rotvec_to_quat(_at(turn_t, turn_r, t)), seg.orientations)
+            out = replace(seg, nodes=seg.nodes + shift, orientations=quat_normalize(turned))
             if resolve and np.abs(shift).max() > 0.0:
-                out = _resolve(seg, out.nodes, out.nodes[0], out.nodes[-1], arms[s])
+                out = _resolve(out, out.nodes, out.nodes[0], out.nodes[-1], arms[s])
         if s == 0 and robot_pose is not None:
             q_robot = np.asarray(robot_pose[3:7], float)
             out = replace(out, orientations=_blend_start_orientation(out, q_robot, decay))
@@ -422,6 +429,29 @@ def _free_knots(
             gap = base[s].nodes[0] - base[s - 1].nodes[-1]
             times.append(float(starts[s]))
             values.append(gap if fixed[s] else -gap)
+    if not times:
+        return np.zeros(0), np.zeros((0, 3))
+    return np.asarray(times), np.stack(values)
+
+
+def _free_turn_knots(base: list[SegmentMaps], fixed: list[bool], starts: Array) -> tuple[Array, Array]:
+    """Knots (times (K,) s, rotation vectors (K, 3) rad, base frame) of the free segments' rotation
+    field, the orientation counterpart of :func:`_free_knots`: zero at the start when segment 0 is
+    free (its orientation is blended to the robot's on its own), and at every free-anchored boundary
+    the turn that takes the free side's orientation there onto the anchored side's. A hand that leaves
+    an object-anchored grasp keeps the grasp's orientation instead of turning back to the
+    demonstrated one with the object in hand."""
+    times, values = [], []
+    if not fixed[0]:
+        times.append(0.0)
+        values.append(np.zeros(3))
+    for s in range(1, len(base)):
+        if fixed[s] != fixed[s - 1]:
+            free, anchored = base[s - 1].orientations[-1], base[s].orientations[0]
+            if not fixed[s]:
+                free, anchored = base[s].orientations[0], base[s - 1].orientations[-1]
+            times.append(float(starts[s]))
+            values.append(quat_to_rotvec(quat_multiply(anchored, quat_conjugate(free))))
     if not times:
         return np.zeros(0), np.zeros((0, 3))
     return np.asarray(times), np.stack(values)

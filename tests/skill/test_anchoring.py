@@ -15,7 +15,7 @@ from lerobot_forcemap.skill.placement import (
     place_skill,
 )
 
-from .helpers import OBJECT_NAMES, TOOL_DOWN, params, press_episode
+from .helpers import GRASP_NAMES, OBJECT_NAMES, TOOL_DOWN, params, press_episode, push_grasp_episode
 
 CFG = params(segments="dataset")
 
@@ -87,6 +87,37 @@ def test_rotated_object_rotates_anchored_segments():
         np.testing.assert_allclose(
             rep.segments[s].orientations, quat_multiply(q, skill.segments[s].orientations), atol=1e-12
         )
+
+
+def _same_orientations(a, b):
+    """Rows of quaternions ``a`` and ``b`` (n, 4) are the same rotations (either sign)."""
+    np.testing.assert_allclose(np.abs(np.einsum("ij,ij->i", a, b)), 1.0, atol=1e-9)
+
+
+def test_a_free_lift_after_a_turned_grasp_keeps_the_grasp_orientation():
+    """A free segment next to an anchored one turns to meet it (the free side's counterpart of the
+    displacement at the boundary), and after the last anchored segment keeps its turn: the hand lifts
+    a grasped object without turning it back to the demonstrated orientation."""
+    cfg = params(segments="dataset", anchor_by_moved_object=True)
+    skill, report = fit_skill([push_grasp_episode()], cfg, 20.0, GRASP_NAMES)
+    assert report.anchors == ("box", "wall", "box", "box", "")
+    turn = rotvec_to_quat(np.array([0.0, 0.0, 0.3]))
+    scene = skill.demo_object_poses()
+    scene["box"] = _pose(scene["box"][:3], turn)
+    rep = place_skill(skill, cfg, robot_pose=None, object_pose=scene)
+    grasp, lift = rep.segments[3], rep.segments[4]
+    _same_orientations(grasp.orientations, quat_multiply(turn, skill.segments[3].orientations))
+    _same_orientations(lift.orientations[:1], grasp.orientations[-1:])
+    _same_orientations(lift.orientations, quat_multiply(turn, skill.segments[4].orientations))
+    np.testing.assert_allclose(lift.nodes[0], grasp.nodes[-1], atol=1e-9)
+
+
+def test_a_free_approach_turns_to_meet_a_turned_anchored_segment(skill):
+    turn = rotvec_to_quat(np.array([0.0, 0.0, -0.4]))
+    rep = _place(skill, _pose([0.4, 0.0, 0.15], TOOL_DOWN), _pose([0.5, 0.0, 0.03], turn))
+    approach, press = rep.segments[0], rep.segments[1]
+    _same_orientations(approach.orientations[:1], TOOL_DOWN[None, :])  # from the robot's
+    _same_orientations(approach.orientations[-1:], press.orientations[:1])  # onto the turned press
 
 
 def test_start_orientation_blends_from_the_robot_to_the_stored_one(skill):
