@@ -68,6 +68,8 @@ RUNTIME_FIELDS = (
     "feedback_deadband",
     "feedback_max_push",
     "feedback_depth_gain",
+    "approach_speed",
+    "approach_zone",
 )
 #: filled in by the fit; every tensor of a checkpoint takes its shape from them
 FITTED_FIELDS = (
@@ -165,6 +167,10 @@ class ForceMapConfig(PreTrainedConfig):
             the depth past the contact's origin that the demonstration had when its force reached
             force_budget (a stiffer object gets the force that takes, up to the demonstrated one);
             reads ``robot_pose_key``. 0: the force law alone (the budget bounds the force).
+        approach_speed, approach_zone: m/s, > 0 (with force_feedback): within approach_zone m of
+            where the demonstration made contact (before or past it), the skill's clock slows so that
+            the target moves into that contact at most approach_speed, until a force is felt
+            (``lerobot_forcemap.skill.approach``): a touch-down gentle under any controller. 0: off.
         fps, n_segments, segment_n_nodes, segment_n_gripper_nodes, segment_anchors, env_state_names,
             dataset_tasks, demo_stiffness (N/m, 0: unknown), n_force_profile (frames of the force
             profile): filled in by the fit (leave them at their defaults); the checkpoint's
@@ -262,6 +268,8 @@ class ForceMapConfig(PreTrainedConfig):
     feedback_deadband: float = 0.5
     feedback_max_push: float = 0.015
     feedback_depth_gain: float = 4.0
+    approach_speed: float = 0.01
+    approach_zone: float = 0.01
 
     # ---- LeRobot plumbing
     normalization_mapping: dict[str, NormalizationMode] = field(
@@ -412,4 +420,6 @@ _RULES = {
     "feedback_push_gain": partial(check_real, low=0.0, unit="m/(N s)"),
     "feedback_deadband": partial(check_real, low=0.0, unit="N"),
     "feedback_max_push": partial(check_real, low=0.0, unit="m"),
+    "approach_speed": partial(check_real, low=0.0, unit="m/s"),
+    "approach_zone": partial(check_real, low=0.0, unit="m"),
 }

@@ -41,6 +41,7 @@ from lerobot_forcemap.data.force_schema import resolve_wrench
 from lerobot_forcemap.data.hub import check_repo_id
 from lerobot_forcemap.data.packed_state import packed_plan, unpack_columns, unpack_features, unpack_rows
 from lerobot_forcemap.data.reader import read_episodes, to_meta
+from lerobot_forcemap.skill.approach import ApproachLimit, contact_starts
 from lerobot_forcemap.skill.episodes import EpisodeArrays, episodes_from_columns, needed_columns
 from lerobot_forcemap.skill.feedback import FeedbackGains, ForceFeedback, ForceProfile, force_profile
 from lerobot_forcemap.skill.fit import FitReport, fit_skill
@@ -294,9 +295,10 @@ class ForceMapPolicy(PreTrainedPolicy):
 
     def reset(self) -> None:
         """Start a new episode: the next observation places the skill."""
-        self._step = 0
+        self._t = 0.0  # the skill's time (s): calls / clock_hz unless the approach rule slowed it
         self._run: SkillRun | None = None
         self._feedback: ForceFeedback | None = None
+        self._approach: ApproachLimit | None = None
 
     @property
     def reanchor_log(self) -> list[dict[str, Any]]:
@@ -313,7 +315,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         """The next ``chunk_size`` targets ``(B, chunk_size, 8)`` from the current time (does not advance it)."""
         batch = unpack_rows(batch, self.config.packed_features)
         run = self._run_for(batch)
-        times = (self._step + np.arange(self.config.chunk_size)) / self.clock_hz
+        times = self._t + np.arange(self.config.chunk_size) / self.clock_hz
         actions = run.actions_at(times)
         if self._feedback is not None:  # the correction so far; select_action updates it
             actions[:, :, :3] += self._feedback.offset()[:, None, :]
@@ -321,18 +323,20 @@ class ForceMapPolicy(PreTrainedPolicy):
 
     @torch.no_grad()
     def select_action(self, batch: dict[str, Tensor], **kwargs: Any) -> Tensor:
-        """The target ``(B, 8)`` at t = k / clock_hz for the k-th call since ``reset``."""
+        """The target ``(B, 8)`` at the skill's time t; each call advances t by 1 / clock_hz, less
+        near a demonstrated contact (``approach_speed``, ``lerobot_forcemap.skill.approach``)."""
         batch = unpack_rows(batch, self.config.packed_features)
         run = self._run_for(batch)
-        actions = run.actions_at(np.array([self._step / self.clock_hz]))[:, 0]
+        t = self._t
+        actions = run.actions_at(np.array([t]))[:, 0]
         feedback = self._feedback_for(batch, len(actions))
         if feedback is not None:
             cfg, n = self.config, len(actions)
             measured = None
             if cfg.feedback_depth_gain > 0 and cfg.robot_pose_key in batch:
                 measured = _rows(batch, cfg.robot_pose_key, n)[:, :3]
-            actions[:, :3] = feedback.step(actions[:, :3], _rows(batch, cfg.force_key, n), measured)
-        self._step += 1
+            actions[:, :3] = feedback.step(actions[:, :3], _rows(batch, cfg.force_key, n), measured, t=t)
+        self._t = t + self._rate(run, feedback, t) / self.clock_hz
         return _tensor(actions, _any_tensor(batch))
 
     def _feedback_for(self, batch: dict[str, Any], n: int) -> ForceFeedback | None:
@@ -370,6 +374,22 @@ class ForceMapPolicy(PreTrainedPolicy):
         self._feedback = ForceFeedback(profile, gains, cfg.fps, self.clock_hz, n)
         return self._feedback
 
+    def _rate(self, run: SkillRun, feedback: ForceFeedback | None, t: float) -> float:
+        """The skill clock's rate for the step from ``t``: below 1 while the approach rule slows a
+        touch-down (``approach_speed`` > 0 with the force feedback running; made on first use)."""
+        cfg = self.config
+        if feedback is None or cfg.approach_speed <= 0:
+            return 1.0
+        if self._approach is None:
+            profile = feedback.profile
+            starts = contact_starts(profile.along, cfg.fps, profile.contact_force)
+            self._approach = ApproachLimit(
+                starts, profile.normal, cfg.approach_speed, cfg.approach_zone, len(feedback.u)
+            )
+        return self._approach.rate(
+            lambda ts: run.actions_at(ts)[:, :, :3], t, 1.0 / self.clock_hz, feedback.felt
+        )
+
     def _run_for(self, batch: dict[str, Any]) -> SkillRun:
         """This episode's run: placed on its first observation, re-anchored as its segments start."""
         n = _batch_size(batch)
@@ -377,7 +397,7 @@ class ForceMapPolicy(PreTrainedPolicy):
             self._run = self._start(batch, n)
         elif len(self._run.placed) != n:
             fail("batch size", f"stay {len(self._run.placed)} within an episode (reset() starts one)", n)
-        t = self._step / self.clock_hz
+        t = self._t
         if self._run.due(t):
             # the observation is read first: a refused one (NaN, wrong width) retried with a good one
             # still re-anchors these segments

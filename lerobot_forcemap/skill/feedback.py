@@ -190,6 +190,7 @@ class ForceFeedback:
         self._contact_at = np.full(n, np.nan)  # this contact's depth origin (_contact_origin)
         self._reached = np.zeros(n, dtype=bool)  # this contact went depth_ref deep
         self._tare_sum = np.zeros((n, 3))
+        self.felt = np.zeros(n, dtype=bool)  # per row: the last step's tared force exceeded f_touch
         self._prev: Array | None = None
         self._last: tuple[Array, Array] | None = None  # the TCP along n and the force, last step
 
@@ -206,13 +207,17 @@ class ForceFeedback:
         """The current correction ``(n, 3)`` m added to the targets."""
         return self.u[:, None] * self.profile.normal
 
-    def step(self, targets: Array, force: Array, measured: Array | None = None) -> Array:
+    def step(
+        self, targets: Array, force: Array, measured: Array | None = None, t: float | None = None
+    ) -> Array:
         """Corrected target positions ``(n, 3)`` from the map's ``targets (n, 3)``, the measured
         reaction ``force (n, >= 3)`` (N, base frame) and the measured TCP positions ``(n, 3)`` (m;
-        None: the force law alone); advances one control step."""
+        None: the force law alone) at the skill's time ``t`` (s; None: steps so far x dt);
+        advances one control step."""
         g, n_vec = self.gains, self.profile.normal
         f = self._tared(np.asarray(force, dtype=np.float64)[:, :3])
-        t = self.k * self.dt
+        self.felt = np.linalg.norm(f, axis=1) > g.f_touch
+        t = self.k * self.dt if t is None else float(t)
         f_ref = self.reference(t)
         f_n = f @ n_vec
         speed = np.zeros(len(targets)) if self._prev is None else (targets - self._prev) @ n_vec / self.dt

@@ -58,11 +58,38 @@ def test_select_action_streams_the_reproduction_and_matches_chunks(policy):
     torch.testing.assert_close(steps, chunk, rtol=0, atol=0)
     # the first target is the robot's current pose (start re-anchoring)
     np.testing.assert_allclose(steps[0, 0, :3].numpy(), [0.42, 0.0, 0.15], atol=1e-6)
-    # after the demonstration's duration the final pose is held
+    # after the demonstration's duration the final pose is held (the clock on calls alone: no force
+    # is ever felt here, so the approach rule would slow the whole zone)
     policy.reset()
+    policy.config.approach_speed = 0.0
     n = int(round(sum(policy.durations.tolist()) * policy.config.fps)) + 5
     acts = torch.stack([policy.select_action(obs) for _ in range(n + 3)])
+    policy.config.approach_speed = 0.01
     torch.testing.assert_close(acts[-1], acts[-3], rtol=0, atol=0)
+
+
+def test_the_approach_rule_slows_the_touch_down_and_only_it(press_checkpoint):
+    """Near the demonstrated contact the target comes down at most approach_speed; the skill ends the
+    same, later (no force is felt: the rule holds through the whole zone)."""
+    import torch
+
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
+    obs = _scene()
+    ruled, plain = (ForceMapPolicy.from_pretrained(press_checkpoint) for _ in range(2))
+    plain.config.approach_speed = 0.0
+    n = int(round(sum(plain.durations.tolist()) * plain.config.fps)) + 5
+    a = torch.stack([plain.select_action(obs) for _ in range(n)])[:, 0].numpy()
+    b = torch.stack([ruled.select_action(obs) for _ in range(n + 80)])[:, 0].numpy()
+    dt = 1.0 / ruled.clock_hz
+    down_a, down_b = -np.diff(a[:, 2]) / dt, -np.diff(b[:, 2]) / dt  # m/s, descent of the target
+    assert down_a.max() > 0.02  # the map itself touches down faster than the rule allows
+    # the contact: the press's lowest target; its zone is 1 cm either side along the vertical
+    near_b = np.abs(b[1:, 2] - a[:, 2].min()) < ruled.config.approach_zone - 0.002
+    # along the touch-down's direction (a few degrees off the vertical) at most approach_speed
+    assert near_b.sum() > 10 and down_b[near_b].max() <= 1.01 * ruled.config.approach_speed
+    np.testing.assert_allclose(b[-1], a[-1], atol=1e-6)  # the same skill, just later
+    assert len(b) - np.argmax(np.all(np.abs(b - b[-1]) < 1e-9, axis=1)) < 80
 
 
 def test_batch_elements_are_placed_in_their_own_scenes(policy):
