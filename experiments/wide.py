@@ -243,8 +243,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--stiffness-episodes",
         type=int,
-        default=10,
-        help="episodes per stiffness cell (default 10)",
+        default=20,
+        help="episodes per stiffness cell (default 20)",
     )
     p.add_argument(
         "--cached-only", action="store_true", help="report only the rows whose episodes all ran already"
