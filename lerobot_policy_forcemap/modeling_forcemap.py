@@ -42,6 +42,7 @@ from lerobot_forcemap.data.hub import check_repo_id
 from lerobot_forcemap.data.packed_state import packed_plan, unpack_columns, unpack_features, unpack_rows
 from lerobot_forcemap.data.reader import read_episodes, to_meta
 from lerobot_forcemap.skill.approach import ApproachLimit, contact_starts
+from lerobot_forcemap.skill.contact_yield import ContactYield
 from lerobot_forcemap.skill.episodes import EpisodeArrays, episodes_from_columns, needed_columns
 from lerobot_forcemap.skill.feedback import FeedbackGains, ForceFeedback, ForceProfile, force_profile
 from lerobot_forcemap.skill.fit import FitReport, fit_skill
@@ -299,6 +300,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         self._run: SkillRun | None = None
         self._feedback: ForceFeedback | None = None
         self._approach: ApproachLimit | None = None
+        self._yield: ContactYield | None = None
 
     @property
     def reanchor_log(self) -> list[dict[str, Any]]:
@@ -319,6 +321,8 @@ class ForceMapPolicy(PreTrainedPolicy):
         actions = run.actions_at(times)
         if self._feedback is not None:  # the correction so far; select_action updates it
             actions[:, :, :3] += self._feedback.offset()[:, None, :]
+        if self._yield is not None:
+            actions[:, :, :3] += self._yield.w[:, None, :]
         return _tensor(actions, _any_tensor(batch))
 
     @torch.no_grad()
@@ -335,7 +339,11 @@ class ForceMapPolicy(PreTrainedPolicy):
             measured = None
             if cfg.feedback_depth_gain > 0 and cfg.robot_pose_key in batch:
                 measured = _rows(batch, cfg.robot_pose_key, n)[:, :3]
-            actions[:, :3] = feedback.step(actions[:, :3], _rows(batch, cfg.force_key, n), measured, t=t)
+            force, planned = _rows(batch, cfg.force_key, n), actions[:, :3].copy()
+            actions[:, :3] = feedback.step(planned, force, measured, t=t)
+            if cfg.contact_yield > 0:
+                rule = self._yield_for(feedback)
+                actions[:, :3] += rule.step(planned, actions[:, :3], force, feedback.reference(t))
         self._t = t + self._rate(run, feedback, t) / self.clock_hz
         return _tensor(actions, _any_tensor(batch))
 
@@ -373,6 +381,17 @@ class ForceMapPolicy(PreTrainedPolicy):
         )
         self._feedback = ForceFeedback(profile, gains, cfg.fps, self.clock_hz, n)
         return self._feedback
+
+    def _yield_for(self, feedback: ForceFeedback) -> ContactYield:
+        """This episode's yield rule (``contact_yield``, ``lerobot_forcemap.skill.contact_yield``),
+        made on first use with the feedback's touch level and tare."""
+        if self._yield is None:
+            cfg, g = self.config, feedback.gains
+            level, most = cfg.contact_yield, cfg.contact_yield_max
+            self._yield = ContactYield(
+                feedback.profile.normal, level, most, g.f_touch, g.tare_steps, feedback.dt, len(feedback.u)
+            )
+        return self._yield
 
     def _rate(self, run: SkillRun, feedback: ForceFeedback | None, t: float) -> float:
         """The skill clock's rate for the step from ``t``: below 1 while the approach rule slows a

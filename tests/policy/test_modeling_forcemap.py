@@ -436,3 +436,35 @@ def test_a_refused_observation_at_a_segment_start_still_reanchors_on_retry(press
     fitted.select_action(moved)
     assert [e["segment"] for e in fitted.reanchor_log] == [anchored[0]]
     assert fitted.reanchor_log[0]["shift"][0] == pytest.approx(0.02, abs=1e-6)
+
+
+def test_the_yield_rule_holds_back_the_maps_press_into_a_slanted_force(press_checkpoint):
+    """With a steady 10 N reaction 37 degrees off the press's (vertical) normal, the targets in the
+    demonstrated contact are moved back along that force from the plain policy's (the map's step into
+    it held back, at most contact_yield_max); chunks carry the offset too."""
+    import torch
+
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
+    obs = _scene()
+    unit = np.array([0.0, 0.6, 0.8])
+    pressed = {**obs, "observation.force": torch.tensor([[*(10.0 * unit), 0.0, 0.0, 0.0]])}
+    ruled, plain = (ForceMapPolicy.from_pretrained(press_checkpoint) for _ in range(2))
+    for p in (ruled, plain):
+        p.config.approach_speed = 0.0
+    plain.config.contact_yield = 0.0
+    assert ruled.config.contact_yield > 0  # on by default
+    n = int(round(sum(plain.durations.tolist()) * plain.config.fps))
+    steps = [obs, obs] + [pressed] * (n - 2)  # the first two observations tare the sensor
+    a = torch.stack([plain.select_action(o) for o in steps])[:, 0, :3].numpy()
+    b = torch.stack([ruled.select_action(o) for o in steps])[:, 0, :3].numpy()
+    back = (b - a) @ unit
+    np.testing.assert_allclose(b - a, back[:, None] * unit, atol=1e-6)  # along the force only
+    assert back.min() >= -1e-6 and 1e-3 < back.max() <= ruled.config.contact_yield_max + 1e-6
+    k = int(np.argmax(back))  # where the most is held back: the next chunks differ by that offset
+    for p in (ruled, plain):
+        p.reset()
+        for o in steps[: k + 1]:
+            p.select_action(o)
+    chunks = [p.predict_action_chunk(pressed)[0, 0, :3].numpy() for p in (ruled, plain)]
+    np.testing.assert_allclose(chunks[0] - chunks[1], back[k] * unit, atol=1e-6)

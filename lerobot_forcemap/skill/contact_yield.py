@@ -1,0 +1,108 @@
+"""The yield rule: in an expected contact, the map's own motion into a measured force slanted from
+the demonstrated normal is held back once that force builds up, so the force no longer grows with
+the controller's stiffness. Pure NumPy.
+
+After a touch-down the map goes on at the demonstration's pace. Where the object does not give way at
+once (a peg resting on the hole's rim until the map's sideways motion brings it over the hole), the
+target runs ahead of the TCP by the map's step each control step, and the force grows by the
+controller's stiffness times that step: one or two steps at 20 Hz, before the force feedback (a rate
+law along the demonstration's normal n) can answer. The measured force's direction, not n, tells
+which part of the map's step presses into the object: the demonstrated n can be tilted far from it
+(the peg's, 53 degrees, by the sideways rubbing summed into it).
+
+Each control step, per batch row (``f`` the measured reaction less a self-tare of the first
+``tare_steps`` observations, away from the surface; ``f_side = |f - (f . n) n|`` its part across the
+demonstrated normal n; ``s`` the map's own target step, m; ``F_ref`` the force feedback's reference)::
+
+    p = f_side + max(f_side - f_side_prev, 0)   across n, a step ahead at its current rise
+    hold where F_ref > f_touch, |f| > f_touch, f_side > SLANT (f . n) and p > level F_ref:
+        w -= min(s . f^, 0) f^                  the step's part into the force is not taken
+    elsewhere: w decays with TAU                the target rejoins the map
+    target = map target + feedback's correction + w,   |w| <= max_offset
+
+A force along n (within 27 degrees: a press) is the feedback's to hold, and it is left to it. The
+step's part along the surface (a wipe, the sideways motion that centres a peg) is kept, and so is
+what the feedback itself pushes in or takes back (the map's step counts only as far as the corrected
+target's step goes into the force).
+Units: m, s, N.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["ContactYield", "TAU", "SLANT"]
+
+Array = NDArray[np.float64]
+
+#: s, how fast a held-back offset returns to the map once the force allows it
+TAU = 0.3
+#: the least tan of the angle between the force and n that is held back (27 degrees): a force along
+#: the demonstrated normal is the feedback's
+SLANT = 0.5
+
+
+class ContactYield:
+    """The rule for ``n`` batch rows stepped every ``dt`` s: ``normal (3,)`` the demonstration's
+    contact normal (unit, base frame), ``level`` (fraction of F_ref, 0: off), ``max_offset`` m,
+    ``f_touch`` N, ``tare_steps`` (module docstring)."""
+
+    def __init__(
+        self,
+        normal: Array,
+        level: float,
+        max_offset: float,
+        f_touch: float,
+        tare_steps: int,
+        dt: float,
+        n: int,
+    ):
+        self.normal = np.asarray(normal, dtype=np.float64).reshape(3)
+        self.level, self.max_offset, self.f_touch = float(level), float(max_offset), float(f_touch)
+        self.tare_steps, self.dt = int(tare_steps), float(dt)
+        self.w = np.zeros((n, 3))  # m, the offset held back, base frame
+        self.k = 0
+        self._tare_sum = np.zeros((n, 3))
+        self._prev_target: tuple[Array, Array] | None = None  # the planned and corrected targets
+        self._prev_force = np.zeros(n)
+
+    def step(self, planned: Array, corrected: Array, force: Array, f_ref: Array) -> Array:
+        """The offset ``(n, 3)`` m to add to the ``corrected (n, 3)`` targets (the map's ``planned
+        (n, 3)`` ones with the force feedback's correction; m, base frame) from the measured reaction
+        ``force (n, >= 3)`` (N, base frame) and the feedback's reference ``f_ref (n,)`` N; advances
+        one control step."""
+        planned, corrected = np.asarray(planned, dtype=np.float64), np.asarray(corrected, dtype=np.float64)
+        f = self._tared(np.asarray(force, dtype=np.float64)[:, :3])
+        mag = np.linalg.norm(f, axis=1)
+        unit = f / np.maximum(mag, 1e-12)[:, None]
+        into = self._into(planned, corrected, unit)
+        along = f @ self.normal
+        side = np.linalg.norm(f - along[:, None] * self.normal, axis=1)
+        ahead = side + np.maximum(side - self._prev_force, 0.0)
+        self._prev_force = side
+        hold = (
+            (self.level > 0) & (f_ref > self.f_touch) & (mag > self.f_touch) & (ahead > self.level * f_ref)
+            & (side > SLANT * along)
+        )  # fmt: skip
+        held = self.w - into[:, None] * unit
+        size = np.linalg.norm(held, axis=1, keepdims=True)
+        held *= np.minimum(1.0, self.max_offset / np.maximum(size, 1e-12))
+        self.w = np.where(hold[:, None], held, self.w * (1.0 - min(1.0, self.dt / TAU)))
+        self.k += 1
+        return self.w.copy()
+
+    def _into(self, planned: Array, corrected: Array, unit: Array) -> Array:
+        """(n,) m <= 0: the map's step along the force's unit ``unit``, no more than the corrected
+        target's step (what the feedback already took back is not held back twice; its own push is
+        not held back at all)."""
+        prev = (planned, corrected) if self._prev_target is None else self._prev_target
+        self._prev_target = (planned.copy(), corrected.copy())
+        along_map = np.einsum("nk,nk->n", planned - prev[0], unit)
+        along_corrected = np.einsum("nk,nk->n", corrected - prev[1], unit)
+        return np.minimum(np.maximum(along_map, along_corrected), 0.0)
+
+    def _tared(self, f: Array) -> Array:
+        if self.k < self.tare_steps:
+            self._tare_sum += f
+        return f - self._tare_sum / max(1, min(self.k + 1, self.tare_steps))
