@@ -39,6 +39,7 @@ __all__ = [
     "check_path",
     "check_dict",
     "check_fields",
+    "check_real_list",
     "usage_errors",
 ]
 
@@ -176,6 +177,13 @@ def check_int_list(
     if distinct and len(set(out)) != len(out):
         fail(name, "hold distinct values", value)
     return out
+
+
+def check_real_list(name: str, value: object, *, low: float | None = None, unit: str = "") -> list[float]:
+    """``value`` as a (possibly empty) list of finite floats ``>= low`` (a list or tuple, not a string)."""
+    if not isinstance(value, list | tuple | np.ndarray):
+        fail(name, "be a list of numbers", value)
+    return [check_real(f"{name}[{i}]", item, low=low, unit=unit) for i, item in enumerate(value)]
 
 
 def check_int_array(name: str, value: object, *, low: int | None = None) -> np.ndarray:

@@ -21,7 +21,11 @@ from huggingface_hub import hf_hub_download
 
 from lerobot_forcemap._validation import fail
 from lerobot_forcemap.jsonfile import read_json_object
-from lerobot_policy_forcemap.configuration_forcemap import FITTED_FIELDS, ForceMapConfig
+from lerobot_policy_forcemap.configuration_forcemap import (
+    FITTED_FIELDS,
+    OPTIONAL_FITTED_FIELDS,
+    ForceMapConfig,
+)
 
 __all__ = [
     "DUMMY_PARAMETER",
@@ -98,7 +102,7 @@ def read_config_json(path: Path) -> dict:
     if data.get("type") != "forcemap":
         raise ValueError(f"{path}: field 'type' is {data.get('type')!r}, expected 'forcemap'")
     for name in (*FITTED_FIELDS, *ForceMapConfig.fit_field_names(), "input_features", "output_features"):
-        if name not in data:
+        if name not in data and name not in OPTIONAL_FITTED_FIELDS:
             raise ValueError(f"{path}: field {name!r} is missing (not a complete fitted forcemap checkpoint)")
     return data
 

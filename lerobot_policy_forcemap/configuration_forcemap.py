@@ -27,6 +27,7 @@ from lerobot_forcemap._validation import (
     check_int,
     check_int_list,
     check_real,
+    check_real_list,
     check_str,
     fail,
 )
@@ -44,7 +45,13 @@ from lerobot_forcemap.skill.params import (
 )
 from lerobot_forcemap.skill.placement import object_slots
 
-__all__ = ["ForceMapConfig", "RUNTIME_FIELDS", "FITTED_FIELDS", "config_error_detail"]
+__all__ = [
+    "ForceMapConfig",
+    "RUNTIME_FIELDS",
+    "FITTED_FIELDS",
+    "OPTIONAL_FITTED_FIELDS",
+    "config_error_detail",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -58,6 +65,7 @@ RUNTIME_FIELDS = (
     "reanchor_online",
     "reanchor_tolerance",
     "reanchor_blend_s",
+    "scale_grasp_height",
     "chunk_size",
     "check_task",
     "control_fps",
@@ -80,12 +88,16 @@ FITTED_FIELDS = (
     "segment_n_nodes",
     "segment_n_gripper_nodes",
     "segment_anchors",
+    "segment_anchor_half_heights",
     "env_state_names",
     "dataset_tasks",
     "demo_stiffness",
     "n_force_profile",
     "packed_features",
 )
+#: fitted fields a checkpoint may lack (written before they existed); loaded at their default, which
+#: keeps that checkpoint's behaviour (docs/troubleshooting.md)
+OPTIONAL_FITTED_FIELDS = ("segment_anchor_half_heights",)
 #: most actions one predict_action_chunk call returns (an hour at 100 Hz; a typo of 10**7 would allocate GBs)
 MAX_CHUNK_SIZE = 360_000
 
@@ -152,6 +164,11 @@ class ForceMapConfig(PreTrainedConfig):
         reanchor_tolerance: shifts below this (m) are ignored.
         reanchor_blend_s: the junction of a re-anchored segment fades out over this many seconds
             (None: the whole segment).
+        scale_grasp_height: when a grasp (a segment whose gripper closes) is re-anchored online to an
+            object lower than the demonstration's (vertical half extents from the environment state's
+            ``<obj>_hx/hy/hz``), lower it by the height above the object's centre at which the
+            demonstration closed the hand times (1 − new / demonstrated half height)
+            (``skill.placement.grasp_lowering``; never raised). Needs ``segment_anchor_half_heights``.
         chunk_size: actions per ``predict_action_chunk`` call.
         check_task: refuse an env whose task string is not one the demonstrations were recorded for
             (its environment state would be another scene's objects).
@@ -183,6 +200,9 @@ class ForceMapConfig(PreTrainedConfig):
             dataset_tasks, demo_stiffness (N/m, 0: unknown), n_force_profile (frames of the force
             profile): filled in by the fit (leave them at their defaults); the checkpoint's
             tensors take their shapes from them.
+        segment_anchor_half_heights: filled in by the fit: per segment the anchor object's vertical
+            half extent (m) at the segment's start in the demonstration (0: free or unknown); empty in
+            checkpoints written before it (no grasp-height scaling).
         packed_features: filled in by the fit: ``{feature: positions in observation.state}`` of the
             features a ``lerobot-record`` dataset packed into ``observation.state``; observations are
             unpacked the same way while acting (``lerobot_forcemap.data.packed_state``).
@@ -250,6 +270,7 @@ class ForceMapConfig(PreTrainedConfig):
     reanchor_online: bool = True
     reanchor_tolerance: float = 0.0005
     reanchor_blend_s: float | None = 1.0
+    scale_grasp_height: bool = True
 
     # ---- action chunks (predict_action_chunk)
     chunk_size: int = 10
@@ -260,6 +281,7 @@ class ForceMapConfig(PreTrainedConfig):
     segment_n_nodes: list[int] = field(default_factory=list)
     segment_n_gripper_nodes: list[int] = field(default_factory=list)
     segment_anchors: list[str] = field(default_factory=list)
+    segment_anchor_half_heights: list[float] = field(default_factory=list)
     env_state_names: list[str] = field(default_factory=list)
     dataset_tasks: list[str] = field(default_factory=list)
     demo_stiffness: float = 0.0
@@ -319,6 +341,10 @@ class ForceMapConfig(PreTrainedConfig):
         for name in ("segment_n_nodes", "segment_n_gripper_nodes", "segment_anchors"):
             if len(value := getattr(self, name)) != n:
                 fail(f"ForceMapConfig.{name}", f"hold one entry per segment (n_segments={n})", value)
+        heights = self.segment_anchor_half_heights
+        if heights and len(heights) != n:
+            what = f"be empty or hold one entry per segment (n_segments={n})"
+            fail("ForceMapConfig.segment_anchor_half_heights", what, heights)
         check_real("ForceMapConfig.fps", self.fps, low=0.0, low_open=True, unit="Hz")
         located = {slot.name for slot in object_slots(self.env_state_names)}
         if unknown := sorted({a for a in self.segment_anchors if a} - located):
@@ -407,6 +433,7 @@ _RULES = {
     "robot_pose_key": check_str,
     "reanchor": check_bool,
     "reanchor_online": check_bool,
+    "scale_grasp_height": check_bool,
     "check_task": check_bool,
     "reanchor_tolerance": partial(check_real, low=0.0, unit="m"),
     "reanchor_blend_s": partial(check_real, low=0.0, low_open=True, none_ok=True, unit="s"),
@@ -420,6 +447,7 @@ _RULES = {
     # fitted sizes: one entry per segment, checked against n_segments once fitted
     "segment_n_nodes": partial(check_int_list, low=3, non_empty=False),
     "segment_n_gripper_nodes": partial(check_int_list, low=3, non_empty=False),
+    "segment_anchor_half_heights": partial(check_real_list, low=0.0, unit="m"),
     # positions in observation.state
     "packed_features": partial(
         check_dict, values=partial(check_int_list, low=0, non_empty=False, distinct=True)

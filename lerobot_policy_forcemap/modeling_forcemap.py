@@ -48,7 +48,13 @@ from lerobot_forcemap.skill.feedback import FeedbackGains, ForceFeedback, ForceP
 from lerobot_forcemap.skill.fit import FitReport, fit_skill
 from lerobot_forcemap.skill.model import FittedSkill, check_flat_arrays
 from lerobot_forcemap.skill.params import SkillParams
-from lerobot_forcemap.skill.placement import SkillRun, object_poses, object_slots, path_distances
+from lerobot_forcemap.skill.placement import (
+    SkillRun,
+    object_half_heights,
+    object_poses,
+    object_slots,
+    path_distances,
+)
 from lerobot_policy_forcemap.checkpoint import (
     DUMMY_PARAMETER,
     PROFILE_TENSORS,
@@ -177,6 +183,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         cfg.segment_n_nodes = [len(s.nodes) for s in skill.segments]
         cfg.segment_n_gripper_nodes = [len(s.gripper_nodes) for s in skill.segments]
         cfg.segment_anchors = list(skill.anchors)
+        cfg.segment_anchor_half_heights = [float(s.anchor_half_height) for s in skill.segments]
         cfg.env_state_names = list(env_state_names)
         cfg.dataset_tasks = sorted(str(t) for t in tasks)
         cfg.validate_parameters()
@@ -223,7 +230,11 @@ class ForceMapPolicy(PreTrainedPolicy):
             arrays = {name: self.get_buffer(name).detach().cpu().numpy() for name in SKILL_TENSORS}
             cfg = self.config
             self._skill = FittedSkill.from_flat(
-                arrays, cfg.segment_n_nodes, cfg.segment_n_gripper_nodes, cfg.segment_anchors
+                arrays,
+                cfg.segment_n_nodes,
+                cfg.segment_n_gripper_nodes,
+                cfg.segment_anchors,
+                cfg.segment_anchor_half_heights,
             )
         return self._skill
 
@@ -420,7 +431,9 @@ class ForceMapPolicy(PreTrainedPolicy):
         if self._run.due(t):
             # the observation is read first: a refused one (NaN, wrong width) retried with a good one
             # still re-anchors these segments
-            self._run.reanchor(t, self._scenes(batch, n))
+            scenes = self._scenes(batch, n)
+            heights = self._half_heights(batch, n) if self.config.scale_grasp_height else None
+            self._run.reanchor(t, scenes, heights)
         return self._run
 
     def _start(self, batch: dict[str, Any], n: int) -> SkillRun:
@@ -453,6 +466,12 @@ class ForceMapPolicy(PreTrainedPolicy):
             )
         slots = object_slots(cfg.env_state_names)
         return [object_poses(row, slots) for row in env]
+
+    def _half_heights(self, batch: dict[str, Any], n: int) -> list[dict[str, float]]:
+        """Per batch row the objects' vertical half extents ``{object: m}`` of the observed environment
+        state (objects whose state gives half extents); read after :meth:`_scenes` checked its width."""
+        slots = object_slots(self.config.env_state_names)
+        return [object_half_heights(row, slots) for row in _rows(batch, self.config.env_state_key, n)]
 
     def _check_task(self, batch: dict[str, Any], n: int) -> None:
         """An env that asks for a task the demonstrations were not recorded for is refused: its

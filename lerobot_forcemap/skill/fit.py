@@ -62,6 +62,7 @@ from lerobot_forcemap.skill.placement import (
     IDENTITY_POSE,
     ObjectSlot,
     object_distances,
+    object_half_heights,
     object_poses,
     object_positions,
     object_slots,
@@ -446,6 +447,7 @@ def _fit_segment(
         raise ValueError(f"segment {s} (episodes {[ep.episode for ep in episodes]}): {err}") from err
     for what, fit in (("arm", arm), ("gripper", grip)):
         _warn_unconverged(s, what, fit)
+    first = episodes[0].env_state[frames[0][0]] if anchor else None
     maps = SegmentMaps(
         nodes=arm.nodes[:, :3],
         node_times=arm.node_times,
@@ -455,6 +457,7 @@ def _fit_segment(
         duration=duration,
         anchor=anchor,
         anchor_pose=poses[0] if anchor else IDENTITY_POSE.copy(),
+        anchor_half_height=object_half_heights(first, slots).get(anchor, 0.0) if anchor else 0.0,
     )
     return maps, arm, grip, _ends(data, duration)
 

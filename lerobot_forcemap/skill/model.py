@@ -42,7 +42,11 @@ class SegmentMaps:
     anchor_initial_pose (7,): the anchor object's pose at the demonstration's first frame (identity
     when free). The two differ when the object moved before the segment (pushed, flipped); the pair
     predicts at reset where the object will be when the segment starts, and rebuilds the
-    demonstration's scene for plots and the replay ablation."""
+    demonstration's scene for plots and the replay ablation.
+    anchor_half_height (m): the anchor object's vertical (base z) bounding-box half extent at
+    ``anchor_pose`` in the demonstration, which scales the grasp height for another object
+    (``placement.grasp_lowering``); 0: unknown (free segments, objects without extents, old
+    checkpoints). Kept in the policy config, not among the tensors."""
 
     nodes: Array
     node_times: Array
@@ -53,6 +57,7 @@ class SegmentMaps:
     anchor: str = ""
     anchor_pose: Array = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]))
     anchor_initial_pose: Array = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]))
+    anchor_half_height: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -129,9 +134,10 @@ class FittedSkill:
         segment_n_nodes: Sequence[int],
         segment_n_gripper_nodes: Sequence[int],
         anchors: Sequence[str],
+        anchor_half_heights: Sequence[float] = (),
     ) -> FittedSkill:
         """Inverse of :meth:`flat_arrays` given the per-segment sizes and anchors (values checked by
-        :func:`check_flat_arrays`)."""
+        :func:`check_flat_arrays`); ``anchor_half_heights``: one per segment, or empty (all 0: unknown)."""
         check_flat_arrays(arrays, segment_n_nodes, segment_n_gripper_nodes)
         cut = np.cumsum(segment_n_nodes)[:-1]
         gcut = np.cumsum(segment_n_gripper_nodes)[:-1]
@@ -146,6 +152,7 @@ class FittedSkill:
         durations = np.asarray(arrays["durations"], dtype=np.float64)
         anchor_poses = np.asarray(arrays["anchor_poses"], dtype=np.float64)
         initial_poses = np.asarray(arrays["anchor_initial_poses"], dtype=np.float64)
+        heights = [float(h) for h in anchor_half_heights] or [0.0] * len(segment_n_nodes)
         return cls(
             tuple(
                 SegmentMaps(
@@ -158,6 +165,7 @@ class FittedSkill:
                     anchor=str(anchors[s]),
                     anchor_pose=anchor_poses[s],
                     anchor_initial_pose=initial_poses[s],
+                    anchor_half_height=heights[s],
                 )
                 for s in range(len(segment_n_nodes))
             )

@@ -61,6 +61,9 @@ segment closes the gripper as it starts: it gets a lead-in instead of the blend,
 seconds in which the robot travels from the junction to the shifted start with the
 gripper held (:class:`SkillRun`: at ``REANCHOR_TRAVEL_SPEED``, over the higher of the two points and
 down; every later segment starts that much later), then runs the shifted path as demonstrated.
+A grasp (its gripper closes) on an object lower than the demonstration's is re-anchored that much
+lower (:func:`grasp_lowering`: its height above the object's centre scaled by the ratio of the
+objects' vertical half extents, never raised), so that the hand closes around the object, not on top.
 """
 
 from __future__ import annotations
@@ -91,6 +94,8 @@ __all__ = [
     "to_object_frame",
     "from_object_frame",
     "object_positions",
+    "object_half_heights",
+    "grasp_lowering",
     "object_distances",
     "compose_poses",
     "invert_pose",
@@ -104,6 +109,7 @@ __all__ = [
     "START_BLEND_SPEED",
     "START_BLEND_TURN_RATE",
     "REANCHOR_TRAVEL_SPEED",
+    "GRASP_CLOSING",
     "demonstrated_reproduction",
 ]
 
@@ -117,6 +123,9 @@ START_BLEND_TURN_RATE = 0.5
 #: a provisional segment re-anchored when it starts first travels to its shifted start at this speed
 #: (m/s), its gripper held, so that it closes on the object where the demonstration did
 REANCHOR_TRAVEL_SPEED = 0.1
+#: a segment whose gripper command rises by at least this (of 0 open .. 1 closed) is a grasp: its
+#: height is scaled to the object's (:func:`grasp_lowering`); approaches and pushes keep theirs
+GRASP_CLOSING = 0.3
 
 
 @dataclass(frozen=True)
@@ -173,6 +182,50 @@ def object_poses(env_state: Array, slots: Sequence[ObjectSlot]) -> dict[str, Arr
             raise ValueError(f"environment state: object {s.name!r} has a non-finite pose {pose.tolist()}")
         out[s.name] = pose
     return out
+
+
+def object_half_heights(env_state: Array, slots: Sequence[ObjectSlot]) -> dict[str, float]:
+    """``{name: half height (m)}`` from one environment-state vector ``(E,)``: the vertical (base z)
+    half extent of each object's bounding box as posed now, for the objects whose state gives half
+    extents (others are left out)."""
+    env_state = np.asarray(env_state, dtype=np.float64).reshape(-1)
+    out = {}
+    for s in slots:
+        if s.extents is None or s.quaternion is None or max(s.extents) >= len(env_state):
+            continue
+        q = env_state[list(s.quaternion)]
+        if not np.linalg.norm(q) >= 1e-6:
+            continue
+        axes = quat_rotate(quat_normalize(q), np.eye(3))  # rows: the object's axes in the base frame
+        half = float(np.abs(axes[:, 2]) @ np.abs(env_state[list(s.extents)]))
+        if np.isfinite(half):
+            out[s.name] = half
+    return out
+
+
+def grasp_lowering(seg: SegmentMaps, demo_half_height: float, half_height: float | None) -> float:
+    """How far (m, >= 0) to lower anchored segment ``seg`` (stored in its object's frame) for an object
+    of ``half_height`` (m, base z, now) where the demonstration's was ``demo_half_height``: when ``seg``
+    is a grasp (its gripper command rises by at least ``GRASP_CLOSING``), the height above the object's
+    centre (base z) at which the demonstration closed the hand (:func:`_closing_height`) times
+    ``1 − half_height / demo_half_height``. A grasp copied from a taller object would close above a low
+    one. Never raised; 0 for other segments, when a height is unknown (<= 0 or None) or the hand
+    closed below the centre."""
+    if not half_height or half_height <= 0 or demo_half_height <= 0 or half_height >= demo_half_height:
+        return 0.0
+    if float(seg.gripper_nodes[-1, 0] - seg.gripper_nodes[0, 0]) < GRASP_CLOSING:
+        return 0.0
+    return max(_closing_height(seg), 0.0) * (1.0 - half_height / demo_half_height)
+
+
+def _closing_height(seg: SegmentMaps) -> float:
+    """Height (m, base z) above the object's centre of anchored segment ``seg`` (stored in its object's
+    frame, posed by ``anchor_pose``) when its gripper command is halfway from its first to its last
+    value: where the hand closed, after any approach within the segment."""
+    g = seg.gripper_nodes[:, 0]
+    t = seg.gripper_node_times[int(np.argmax(g >= g[0] + 0.5 * (g[-1] - g[0])))]
+    z = quat_rotate(np.asarray(seg.anchor_pose[3:], float), seg.nodes)[:, 2]
+    return float(np.interp(t, seg.node_times, z))
 
 
 def object_positions(env_state: Array, slot: ObjectSlot) -> Array:
@@ -677,9 +730,16 @@ class SkillRun:
             self.next_segment = current + 1
         return started
 
-    def reanchor(self, t: float, object_poses: Sequence[Mapping[str, Array]]) -> None:
+    def reanchor(
+        self,
+        t: float,
+        object_poses: Sequence[Mapping[str, Array]],
+        half_heights: Sequence[Mapping[str, float]] | None = None,
+    ) -> None:
         """Re-anchor the segments :meth:`due` at ``t`` to the objects observed now (``{object: (7,)}``
-        per row); call it once the observation has been read."""
+        per row); call it once the observation has been read. ``half_heights``: per row the objects'
+        vertical half extents now (``{object: m}``, :func:`object_half_heights`): a segment whose object
+        is lower than the demonstration's is lowered by :func:`grasp_lowering` (None: never)."""
         started = self.due(t)
         if not started:
             return
@@ -691,11 +751,13 @@ class SkillRun:
             self.provisional = provisional_segments(
                 self.skill, self.observed_as, self.params.anchoring.static_tolerance, started=s
             )
+            targets = [
+                self._target(s, i, poses[obj][:3], half_heights) for i, poses in enumerate(object_poses)
+            ]
             if was_provisional:
-                self._lead_in(s, t, [poses[obj][:3] for poses in object_poses])
+                self._lead_in(s, t, targets)
                 continue
-            for i, poses in enumerate(object_poses):
-                position = poses[obj][:3]
+            for i, position in enumerate(targets):
                 shift = position - self.placed[i].segments[s].anchor_pose[:3]
                 if float(np.linalg.norm(shift)) <= self.tolerance:
                     continue
@@ -709,6 +771,17 @@ class SkillRun:
                     provisional=self.provisional,
                 )
                 self._note(s, i, t, shift, 0.0)
+
+    def _target(
+        self, s: int, row: int, position: Array, half_heights: Sequence[Mapping[str, float]] | None
+    ) -> Array:
+        """Where segment ``s`` of ``row`` is re-anchored: the object's observed ``position (3,)``,
+        lowered for a lower object than the demonstration's (:func:`grasp_lowering`)."""
+        position = np.asarray(position, dtype=np.float64).copy()
+        if half_heights is not None:
+            seg = self.skill.segments[s]
+            position[2] -= grasp_lowering(seg, seg.anchor_half_height, half_heights[row].get(seg.anchor))
+        return position
 
     def _lead_in(self, s: int, t: float, positions: Sequence[Array]) -> None:
         """Re-anchor provisional segment ``s`` of every row with a lead-in at
