@@ -127,7 +127,10 @@ def fitted_checkpoint(job: Job, workdir: str | Path, *, force: bool = False) -> 
     result = fit_policy(job.dataset_path, tmp, episodes=[job.demo], overrides=job.overrides, overwrite=True)
     fit = _fit_info(result, job.demo, ckpt)
     (tmp / "fit_info.json").write_text(json.dumps(fit))
-    if ckpt.exists():
+    if info_file.is_file() and not force:  # another worker finished first; it may be loading that copy
+        shutil.rmtree(tmp, ignore_errors=True)
+        return ckpt, json.loads(info_file.read_text())
+    if ckpt.exists():  # an incomplete folder, or the fit being replaced (force)
         shutil.rmtree(ckpt, ignore_errors=True)
     try:
         tmp.rename(ckpt)
