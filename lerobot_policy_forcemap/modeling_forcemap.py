@@ -408,8 +408,8 @@ class ForceMapPolicy(PreTrainedPolicy):
         """The skill clock's rate for the step from ``t``: below 1 while the approach rule slows a
         touch-down (``approach_speed`` > 0 with the force feedback running; made on first use)."""
         cfg = self.config
-        if feedback is None or cfg.approach_speed <= 0:
-            return 1.0
+        if feedback is None or cfg.approach_speed <= 0 or feedback.moved_object:
+            return 1.0  # a demonstration that moved its object had no touch-down to slow
         if self._approach is None:
             profile = feedback.profile
             starts = contact_starts(profile.along, cfg.fps, profile.contact_force)

@@ -183,9 +183,10 @@ class ForceFeedback:
         self.profile, self.gains, self.fps, self.dt = profile, gains, fps, 1.0 / control_hz
         self.k = 0
         self.u = np.zeros(n)
-        depth_ref = profile.depth_at(gains.budget) if gains.depth_gain > 0 else float("nan")
+        push_depth = profile.depth_at(gains.budget)
         # deeper than the feedback may press past the map: the object moved (module docstring)
-        self.depth_ref = depth_ref if depth_ref <= gains.max_push else float("nan")
+        self.moved_object = bool(push_depth > gains.max_push)
+        self.depth_ref = push_depth if gains.depth_gain > 0 and not self.moved_object else float("nan")
         self._lo_at = np.full(n, np.nan)  # the TCP along n where this contact passed contact_force
         self._contact_at = np.full(n, np.nan)  # this contact's depth origin (_contact_origin)
         self._reached = np.zeros(n, dtype=bool)  # this contact went depth_ref deep

@@ -133,3 +133,4 @@ def test_the_depth_law_stays_off_where_the_demonstration_moved_the_object():
         assert bool(profile.depth_at(gains.budget) > gains.max_push) is not on
         fb = ForceFeedback(profile, gains, FPS, FPS, 1)
         assert bool(np.isfinite(fb.depth_ref)) is on, (k_env, fb.depth_ref)
+        assert fb.moved_object is not on  # the policy's approach rule reads it: no touch-down to slow
