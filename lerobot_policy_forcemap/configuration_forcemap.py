@@ -189,13 +189,16 @@ class ForceMapConfig(PreTrainedConfig):
         approach_speed, approach_zone: m/s, > 0 (with force_feedback): within approach_zone m of
             where the demonstration made contact (before or past it), the skill's clock slows so that
             the target moves into that contact at most approach_speed, until a force is felt
-            (``lerobot_forcemap.skill.approach``): a touch-down gentle under any controller. 0: off.
+            (``lerobot_forcemap.skill.approach``): a touch-down gentle under any controller. 0 (the
+            default): off; 0.01 is the measured setting (docs/policy.md: it costs the presses of the
+            real recordings' twins their switch).
         contact_yield, contact_yield_max: > 0 (with force_feedback): where contact is expected and the
             measured force is slanted more than 27 degrees from the contact normal, once its part
             across the normal, a step ahead at its current rise, exceeds contact_yield x F_ref, the
             map's own step into the measured force is held back (at most contact_yield_max m,
             returning with 0.3 s once the force allows; ``lerobot_forcemap.skill.contact_yield``):
-            a peg pressed on a rim no longer presses harder with a stiffer controller. 0: off.
+            a peg pressed on a rim no longer presses harder with a stiffer controller. 0 (the
+            default): off; 0.25 is the measured setting.
         fps, n_segments, segment_n_nodes, segment_n_gripper_nodes, segment_anchors, env_state_names,
             dataset_tasks, demo_stiffness (N/m, 0: unknown), n_force_profile (frames of the force
             profile): filled in by the fit (leave them at their defaults); the checkpoint's
@@ -298,9 +301,9 @@ class ForceMapConfig(PreTrainedConfig):
     feedback_deadband: float = 0.5
     feedback_max_push: float = 0.015
     feedback_depth_gain: float = 4.0
-    approach_speed: float = 0.01
+    approach_speed: float = 0.0
     approach_zone: float = 0.01
-    contact_yield: float = 0.25
+    contact_yield: float = 0.0
     contact_yield_max: float = 0.01
 
     # ---- LeRobot plumbing

@@ -78,6 +78,7 @@ def test_the_approach_rule_slows_the_touch_down_and_only_it(press_checkpoint):
     obs = _scene()
     ruled, plain = (ForceMapPolicy.from_pretrained(press_checkpoint) for _ in range(2))
     plain.config.approach_speed = 0.0
+    ruled.config.approach_speed = 0.01  # opt-in (off by default)
     n = int(round(sum(plain.durations.tolist()) * plain.config.fps)) + 5
     a = torch.stack([plain.select_action(obs) for _ in range(n)])[:, 0].numpy()
     b = torch.stack([ruled.select_action(obs) for _ in range(n + 80)])[:, 0].numpy()
@@ -453,7 +454,7 @@ def test_the_yield_rule_holds_back_the_maps_press_into_a_slanted_force(press_che
     for p in (ruled, plain):
         p.config.approach_speed = 0.0
     plain.config.contact_yield = 0.0
-    assert ruled.config.contact_yield > 0  # on by default
+    ruled.config.contact_yield = 0.25  # opt-in (off by default)
     n = int(round(sum(plain.durations.tolist()) * plain.config.fps))
     steps = [obs, obs] + [pressed] * (n - 2)  # the first two observations tare the sensor
     a = torch.stack([plain.select_action(o) for o in steps])[:, 0, :3].numpy()
