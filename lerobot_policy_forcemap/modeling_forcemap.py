@@ -350,11 +350,11 @@ class ForceMapPolicy(PreTrainedPolicy):
             measured = None
             if cfg.feedback_depth_gain > 0 and cfg.robot_pose_key in batch:
                 measured = _rows(batch, cfg.robot_pose_key, n)[:, :3]
-            force, planned = _rows(batch, cfg.force_key, n), actions[:, :3].copy()
-            actions[:, :3] = feedback.step(planned, force, measured, t=t)
+            planned = actions[:, :3].copy()
+            actions[:, :3] = feedback.step(planned, _rows(batch, cfg.force_key, n), measured, t=t)
             if cfg.contact_yield > 0:
                 rule = self._yield_for(feedback)
-                actions[:, :3] += rule.step(planned, actions[:, :3], force, feedback.reference(t))
+                actions[:, :3] += rule.step(planned, actions[:, :3], feedback.force, feedback.reference(t))
         self._t = t + self._rate(run, feedback, t) / self.clock_hz
         return _tensor(actions, _any_tensor(batch))
 
@@ -395,12 +395,12 @@ class ForceMapPolicy(PreTrainedPolicy):
 
     def _yield_for(self, feedback: ForceFeedback) -> ContactYield:
         """This episode's yield rule (``contact_yield``, ``lerobot_forcemap.skill.contact_yield``),
-        made on first use with the feedback's touch level and tare."""
+        made on first use with the feedback's touch level; it reads the feedback's tared force."""
         if self._yield is None:
             cfg, g = self.config, feedback.gains
             level, most = cfg.contact_yield, cfg.contact_yield_max
             self._yield = ContactYield(
-                feedback.profile.normal, level, most, g.f_touch, g.tare_steps, feedback.dt, len(feedback.u)
+                feedback.profile.normal, level, most, g.f_touch, feedback.dt, len(feedback.u)
             )
         return self._yield
 

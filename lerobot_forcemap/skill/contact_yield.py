@@ -10,8 +10,8 @@ law along the demonstration's normal n) can answer. The measured force's directi
 which part of the map's step presses into the object: the demonstrated n can be tilted far from it
 (the peg's, 53 degrees, by the sideways rubbing summed into it).
 
-Each control step, per batch row (``f`` the measured reaction less a self-tare of the first
-``tare_steps`` observations, away from the surface; ``f_side = |f - (f . n) n|`` its part across the
+Each control step, per batch row (``f`` the measured reaction as the force feedback tared it: less
+the mean of its first observations, away from the surface; ``f_side = |f - (f . n) n|`` its part across the
 demonstrated normal n; ``s`` the map's own target step, m; ``F_ref`` the force feedback's reference)::
 
     p = f_side + max(f_side - f_side_prev, 0)   across n, a step ahead at its current rise
@@ -46,7 +46,7 @@ SLANT = 0.5
 class ContactYield:
     """The rule for ``n`` batch rows stepped every ``dt`` s: ``normal (3,)`` the demonstration's
     contact normal (unit, base frame), ``level`` (fraction of F_ref, 0: off), ``max_offset`` m,
-    ``f_touch`` N, ``tare_steps`` (module docstring)."""
+    ``f_touch`` N (module docstring)."""
 
     def __init__(
         self,
@@ -54,26 +54,23 @@ class ContactYield:
         level: float,
         max_offset: float,
         f_touch: float,
-        tare_steps: int,
         dt: float,
         n: int,
     ):
         self.normal = np.asarray(normal, dtype=np.float64).reshape(3)
         self.level, self.max_offset, self.f_touch = float(level), float(max_offset), float(f_touch)
-        self.tare_steps, self.dt = int(tare_steps), float(dt)
+        self.dt = float(dt)
         self.w = np.zeros((n, 3))  # m, the offset held back, base frame
-        self.k = 0
-        self._tare_sum = np.zeros((n, 3))
         self._prev_target: tuple[Array, Array] | None = None  # the planned and corrected targets
         self._prev_force = np.zeros(n)
 
     def step(self, planned: Array, corrected: Array, force: Array, f_ref: Array) -> Array:
         """The offset ``(n, 3)`` m to add to the ``corrected (n, 3)`` targets (the map's ``planned
-        (n, 3)`` ones with the force feedback's correction; m, base frame) from the measured reaction
-        ``force (n, >= 3)`` (N, base frame) and the feedback's reference ``f_ref (n,)`` N; advances
+        (n, 3)`` ones with the force feedback's correction; m, base frame) from the tared reaction
+        ``force (n, >= 3)`` (N, base frame: ``ForceFeedback.force``) and the feedback's reference ``f_ref (n,)`` N; advances
         one control step."""
         planned, corrected = np.asarray(planned, dtype=np.float64), np.asarray(corrected, dtype=np.float64)
-        f = self._tared(np.asarray(force, dtype=np.float64)[:, :3])
+        f = np.asarray(force, dtype=np.float64)[:, :3]
         mag = np.linalg.norm(f, axis=1)
         unit = f / np.maximum(mag, 1e-12)[:, None]
         into = self._into(planned, corrected, unit)
@@ -89,7 +86,6 @@ class ContactYield:
         size = np.linalg.norm(held, axis=1, keepdims=True)
         held *= np.minimum(1.0, self.max_offset / np.maximum(size, 1e-12))
         self.w = np.where(hold[:, None], held, self.w * (1.0 - min(1.0, self.dt / TAU)))
-        self.k += 1
         return self.w.copy()
 
     def _into(self, planned: Array, corrected: Array, unit: Array) -> Array:
@@ -101,8 +97,3 @@ class ContactYield:
         along_map = np.einsum("nk,nk->n", planned - prev[0], unit)
         along_corrected = np.einsum("nk,nk->n", corrected - prev[1], unit)
         return np.minimum(np.maximum(along_map, along_corrected), 0.0)
-
-    def _tared(self, f: Array) -> Array:
-        if self.k < self.tare_steps:
-            self._tare_sum += f
-        return f - self._tare_sum / max(1, min(self.k + 1, self.tare_steps))

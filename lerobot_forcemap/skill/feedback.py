@@ -191,7 +191,8 @@ class ForceFeedback:
         self._contact_at = np.full(n, np.nan)  # this contact's depth origin (_contact_origin)
         self._reached = np.zeros(n, dtype=bool)  # this contact went depth_ref deep
         self._tare_sum = np.zeros((n, 3))
-        self.felt = np.zeros(n, dtype=bool)  # per row: the last step's tared force exceeded f_touch
+        self.force = np.zeros((n, 3))  # N, base frame: the last step's measured reaction, tared
+        self.felt = np.zeros(n, dtype=bool)  # per row: that force exceeded f_touch
         self._prev: Array | None = None
         self._last: tuple[Array, Array] | None = None  # the TCP along n and the force, last step
 
@@ -216,7 +217,7 @@ class ForceFeedback:
         None: the force law alone) at the skill's time ``t`` (s; None: steps so far x dt);
         advances one control step."""
         g, n_vec = self.gains, self.profile.normal
-        f = self._tared(np.asarray(force, dtype=np.float64)[:, :3])
+        f = self.force = self._tared(np.asarray(force, dtype=np.float64)[:, :3])
         self.felt = np.linalg.norm(f, axis=1) > g.f_touch
         t = self.k * self.dt if t is None else float(t)
         f_ref = self.reference(t)

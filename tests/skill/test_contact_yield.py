@@ -18,7 +18,7 @@ UP = np.array([0.0, 0.0, 1.0])
 
 
 def _rule(level: float = 0.25, normal=TILTED) -> ContactYield:
-    return ContactYield(normal, level, 0.01, 1.0, 0, DT, 1)
+    return ContactYield(normal, level, 0.01, 1.0, DT, 1)
 
 
 def _press(k_ctrl: float, level: float, steps: int = 12, give_way_at: int | None = None, normal=TILTED):
