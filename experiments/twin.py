@@ -8,7 +8,9 @@ actions in the twin, fit the forcemap policy one-shot from the same recording wi
 defaults (``forcemap fit``) and run it in the twin. Writes ``results/twin.md`` (and ``.json``): the
 twin's calibration (tool-offset residual, the replay's reaction against the recording's: correlation
 and peak error) and, per recording, success, max and mean contact force of the replay and of the
-reproduction and their change, with the paper's Table II beside them.
+reproduction and their change, with the paper's Table II beside them. Converted recordings and
+fitted checkpoints are kept under ``WORKDIR/checkpoints/<code fingerprint>/``
+(``experiments.paper.jobs``): a code change converts and fits again; other versions' folders go.
 """
 
 from __future__ import annotations
@@ -203,9 +205,13 @@ def main(argv: list[str] | None = None) -> int:
     root = find_shared_data("ur5e")
     if root is None:
         raise SystemExit("experiments.twin: the real recordings (shared data ur5e/) are not there")
+    from experiments.paper.jobs import code_fingerprint, prune_stale_caches
+
+    prune_stale_caches(args.workdir)
+    workdir = Path(args.workdir) / "checkpoints" / code_fingerprint()  # a code change refits
     rows = []
     for name in RECORDINGS:
-        rows.append(run_one(name, root / "ur5e" / f"{name}.h5", Path(args.workdir)))
+        rows.append(run_one(name, root / "ur5e" / f"{name}.h5", workdir))
         print(json.dumps({k: rows[-1][k] for k in ("recording", "demo", "repro", "change_pct")}), flush=True)
     out = Path(args.out)
     out.write_text(render(rows))
