@@ -1,11 +1,11 @@
 """Real demonstrations in their simulated twins: the paper's Table II on the lab recordings.
 
-    python -m experiments.twin [--workdir outputs/twin] [--out results/twin.md]
+    python -m experiments.twin [--workdir outputs/twin] [--out results/twin.md] [--set FIELD=VALUE ...]
 
 For every real press and wipe recording (the UR5e files of the project's shared data): convert it
 (``forcemap convert`` defaults), build its twin (``forcemap twin``), replay the demonstration's
 actions in the twin, fit the forcemap policy one-shot from the same recording with the package
-defaults (``forcemap fit``) and run it in the twin. Writes ``results/twin.md`` (and ``.json``): the
+defaults, or with ``--set`` settings as ``forcemap fit --set`` takes them, and run it in the twin. Writes ``results/twin.md`` (and ``.json``): the
 twin's calibration (tool-offset residual, the replay's reaction against the recording's: correlation
 and peak error) and, per recording, success, max and mean contact force of the replay and of the
 reproduction and their change, with the paper's Table II beside them. Converted recordings and
@@ -16,12 +16,15 @@ fitted checkpoints are kept under ``WORKDIR/checkpoints/<code fingerprint>/``
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import shutil
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from lerobot_forcemap.cli.fit import add_set_argument, make_config
 from lerobot_forcemap.shared_data import find_shared_data
 
 REPO = Path(__file__).resolve().parents[1]
@@ -78,22 +81,24 @@ def _replay_actor(actions: np.ndarray):
     return reset, act
 
 
-def _policy_actor(dataset: Path, ckpt: Path, task: str, control_hz: float):
-    """The forcemap policy fitted one-shot on ``dataset``, stepping its skill at the twin's control rate
-    (the recording's 50 fps would stretch its timing 2.5 times in the 20 Hz twin)."""
+def _policy_actor(dataset: Path, ckpt: Path, task: str, control_hz: float, overrides: Sequence[str] = ()):
+    """The forcemap policy fitted one-shot on ``dataset`` (``--set FIELD=VALUE`` ``overrides``),
+    stepping its skill at the twin's control rate (the recording's 50 fps would stretch its timing 2.5
+    times in the 20 Hz twin)."""
     from lerobot_forcemap.cli.fit import fit_policy
     from lerobot_forcemap.evaluation.evaluate import lerobot_actor, load_policy
 
     if not (ckpt / "config.json").is_file():
         shutil.rmtree(ckpt, ignore_errors=True)
-        fit_policy(dataset, ckpt, episodes=[0])
+        fit_policy(dataset, ckpt, episodes=[0], overrides=overrides)
     policy, pre, post = load_policy(ckpt)
     policy.config.control_fps = control_hz
     return lerobot_actor(policy, pre, post, task)
 
 
-def run_one(name: str, h5: Path, workdir: Path) -> dict:
-    """Twin, replay and reproduction of one recording (module docstring)."""
+def run_one(name: str, h5: Path, workdir: Path, overrides: Sequence[str] = ()) -> dict:
+    """Twin, replay and reproduction of one recording (module docstring); ``overrides``: settings of
+    the fit (``forcemap fit --set``)."""
     from lerobot_forcemap.envs.twin import build_twin, make_twin, read_recording, replay_actions
 
     dataset = _convert(h5, workdir / "datasets" / name)
@@ -101,9 +106,11 @@ def run_one(name: str, h5: Path, workdir: Path) -> dict:
     env = make_twin(build.scene, render_mode=None)
     try:
         demo = _run(env, _replay_actor(replay_actions(read_recording(dataset, 0))))
-        actor = _policy_actor(
-            dataset, workdir / "checkpoints" / name, build.scene.task, 1.0 / env.unwrapped.control_dt
-        )
+        fits = "checkpoints"
+        if overrides:  # a fit per setting
+            fits += "-" + hashlib.sha1(" ".join(sorted(overrides)).encode()).hexdigest()[:8]
+        hz = 1.0 / env.unwrapped.control_dt
+        actor = _policy_actor(dataset, workdir / fits / name, build.scene.task, hz, overrides)
         repro = _run(env, actor)
     finally:
         env.close()
@@ -128,8 +135,9 @@ def _reached(row: dict) -> str:
     return f"{d['coverage']:.2f} / {q['coverage']:.2f} / {t['coverage_goal']:.2f}"
 
 
-def render(rows: list[dict]) -> str:
-    """The markdown page."""
+def render(rows: list[dict], overrides: Sequence[str] = ()) -> str:
+    """The markdown page (``overrides``: the fit's ``--set`` settings, named in it)."""
+    settings = f"package defaults and --set {' '.join(overrides)}" if overrides else "package defaults"
     lines = [
         "# Real demonstrations (twin)",
         "",
@@ -138,7 +146,7 @@ def render(rows: list[dict]) -> str:
         "calibrated against the simulated flange (residual), a spring button or board placed from the",
         "strongest detected contact, its spring fitted to the contact reaction estimate and refined by",
         "replaying the recorded actions. In the twin, the demonstration's actions are replayed and the",
-        "forcemap policy fitted one-shot from the same recording (package defaults) is run. Forces are the",
+        f"forcemap policy fitted one-shot from the same recording ({settings}) is run. Forces are the",
         "twin's contact force (N, physics rate, 10 Hz low-pass; mean over the whole episode). A change of",
         "-100 % next to a failed reproduction means that it never touched the surface: a failure, not a",
         "force reduction. A button sits under the simulated gripper's pad where the recording touched down,",
@@ -193,7 +201,8 @@ def render(rows: list[dict]) -> str:
         lines.append(
             f"| {label} | {mx} / {PAPER[kind]['max']:+.2f} % | {mn} / {PAPER[kind]['mean']:+.2f} % |"
         )
-    lines += ["", "Generated by `python -m experiments.twin`.", ""]
+    command = " ".join(["python -m experiments.twin", *(["--set", *overrides] if overrides else [])])
+    lines += ["", f"Generated by `{command}`.", ""]
     return "\n".join(lines)
 
 
@@ -201,7 +210,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--workdir", default=str(REPO / "outputs" / "twin"))
     parser.add_argument("--out", default=str(REPO / "results" / "twin.md"))
+    add_set_argument(parser)
     args = parser.parse_args(argv)
+    make_config(overrides=args.overrides)  # a bad setting is refused before any work
     root = find_shared_data("ur5e")
     if root is None:
         raise SystemExit("experiments.twin: the real recordings (shared data ur5e/) are not there")
@@ -211,10 +222,11 @@ def main(argv: list[str] | None = None) -> int:
     workdir = Path(args.workdir) / "checkpoints" / code_fingerprint()  # a code change refits
     rows = []
     for name in RECORDINGS:
-        rows.append(run_one(name, root / "ur5e" / f"{name}.h5", workdir))
+        rows.append(run_one(name, root / "ur5e" / f"{name}.h5", workdir, args.overrides))
         print(json.dumps({k: rows[-1][k] for k in ("recording", "demo", "repro", "change_pct")}), flush=True)
     out = Path(args.out)
-    out.write_text(render(rows))
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(render(rows, args.overrides))
     out.with_suffix(".json").write_text(json.dumps(rows, indent=1) + "\n")
     print(f"wrote {out}")
     return 0
