@@ -431,8 +431,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         if self._run.due(t):
             # the observation is read first: a refused one (NaN, wrong width) retried with a good one
             # still re-anchors these segments
-            scenes = self._scenes(batch, n)
-            heights = self._half_heights(batch, n) if self.config.scale_grasp_height else None
+            scenes, heights = self._objects(batch, n, heights=self.config.scale_grasp_height)
             self._run.reanchor(t, scenes, heights)
         return self._run
 
@@ -442,7 +441,9 @@ class ForceMapPolicy(PreTrainedPolicy):
         self._check_task(batch, n)
         robot = _rows(batch, cfg.robot_pose_key, n) if cfg.reanchor else None
         scenes = (
-            self._scenes(batch, n) if cfg.reanchor and any(skill.anchors) else [skill.demo_object_poses()] * n
+            self._objects(batch, n)[0]
+            if cfg.reanchor and any(skill.anchors)
+            else [skill.demo_object_poses()] * n
         )
         return SkillRun.start(
             skill,
@@ -455,8 +456,11 @@ class ForceMapPolicy(PreTrainedPolicy):
             robot_name=f"observation {cfg.robot_pose_key!r}",
         )
 
-    def _scenes(self, batch: dict[str, Any], n: int) -> list[dict[str, np.ndarray]]:
-        """Per batch row the object poses ``{object: (7,)}`` of the observed environment state."""
+    def _objects(
+        self, batch: dict[str, Any], n: int, heights: bool = False
+    ) -> tuple[list[dict[str, np.ndarray]], list[dict[str, float]] | None]:
+        """Per batch row the object poses ``{object: (7,)}`` of the observed environment state and, with
+        ``heights``, the objects' vertical half extents ``{object: m}`` (those whose state gives them)."""
         cfg = self.config
         env = _rows(batch, cfg.env_state_key, n)
         if env.shape[1] != len(cfg.env_state_names):
@@ -465,13 +469,8 @@ class ForceMapPolicy(PreTrainedPolicy):
                 f"{len(cfg.env_state_names)} ({cfg.env_state_names})"
             )
         slots = object_slots(cfg.env_state_names)
-        return [object_poses(row, slots) for row in env]
-
-    def _half_heights(self, batch: dict[str, Any], n: int) -> list[dict[str, float]]:
-        """Per batch row the objects' vertical half extents ``{object: m}`` of the observed environment
-        state (objects whose state gives half extents); read after :meth:`_scenes` checked its width."""
-        slots = object_slots(self.config.env_state_names)
-        return [object_half_heights(row, slots) for row in _rows(batch, self.config.env_state_key, n)]
+        poses = [object_poses(row, slots) for row in env]
+        return poses, [object_half_heights(row, slots) for row in env] if heights else None
 
     def _check_task(self, batch: dict[str, Any], n: int) -> None:
         """An env that asks for a task the demonstrations were not recorded for is refused: its
@@ -527,7 +526,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         if (width := rows.shape[1]) < 3:
             raise ValueError(f"forward: {cfg.pose_key!r} needs [x y z ...] per row, got {width} entries")
         use_env = any(skill.anchors) and cfg.env_state_key in batch
-        scenes = self._scenes(batch, n) if use_env else [skill.demo_object_poses()] * n
+        scenes = self._objects(batch, n)[0] if use_env else [skill.demo_object_poses()] * n
         dist = path_distances(skill, self.params, rows[:, :3], scenes)
         dummy = getattr(self, DUMMY_PARAMETER)
         per_sample = torch.as_tensor(dist, dtype=dummy.dtype, device=dummy.device) + 0.0 * dummy.sum()
