@@ -1,6 +1,7 @@
 """The force tasks under "wide" variation, and one checkpoint per task against the controller's stiffness.
 
     python -m experiments.wide [--workers 2] [--episodes 50] [--tasks T ...] [--quick --out DIR]
+        [--set FIELD=VALUE ... --out DIR]
 
 Writes ``results/wide.json`` and ``results/wide.md``. Two parts:
 
@@ -21,6 +22,9 @@ demonstrations is per demonstration, then averaged (``experiments.paper.jobs.dem
 success interval's unit is the demonstration where one ran several episodes (Wilson 95 % over the
 10 demonstrations' success rates, ``lerobot_forcemap.evaluation.stats.success_interval``), so 50
 successes of 50 episodes read [72, 100].
+
+``--set FIELD=VALUE ...`` (as ``forcemap fit --set``) runs the defaults rows and the defaults' stiffness
+cells with those settings, on the same draws, into ``--out``: how an opt-in setting is measured.
 """
 
 from __future__ import annotations
@@ -46,6 +50,7 @@ from experiments.paper.common import (
 from experiments.paper.jobs import Job, code_fingerprint
 from lerobot_forcemap import executor
 from lerobot_forcemap._validation import check_int, usage_errors
+from lerobot_forcemap.cli.fit import add_set_argument, make_config
 
 #: the seeds of the wide part (not the paper's evaluation or tuning seeds)
 WIDE_SEED0 = 5000
@@ -96,15 +101,20 @@ def _row(exp, task, method, label, jobs, settings, obj=None) -> Cell:
     return Cell(exp, task, method, label, jobs, settings=settings, object=obj, design="split")
 
 
-def force_task_cells(task: str, n: int, others: int, demos) -> list[Cell]:
-    """The wide rows of press, erase or peg_in_hole."""
+def _with(label: str, extra: tuple[str, ...]) -> str:
+    """``label`` naming the ``--set`` settings that its rows run with."""
+    return f"{label} + --set {' '.join(extra)}" if extra else label
+
+
+def force_task_cells(task: str, n: int, others: int, demos, extra: tuple[str, ...] = ()) -> list[Cell]:
+    """The wide rows of press, erase or peg_in_hole; ``extra``: ``--set`` settings of the defaults rows."""
     env = {"randomize": "wide"}
     fm = "forcemap"
-    no_fb = ("force_feedback=false",)
+    no_fb = (*extra, "force_feedback=false")
     return [
-        _row("wide", task, "defaults", "package defaults (k = 0.8 K_demo, force feedback 6.5 N + depth)",
-             _jobs(task, "defaults", fm, n, WIDE_SEED0, demos, env=env), {"overrides": []}),
-        _row("wide", task, "defaults_no_feedback", "package defaults without the feedback",
+        _row("wide", task, "defaults", _with("package defaults (k = 0.8 K_demo, force feedback 6.5 N + depth)", extra),
+             _jobs(task, "defaults", fm, n, WIDE_SEED0, demos, overrides=extra, env=env), {"overrides": list(extra)}),
+        _row("wide", task, "defaults_no_feedback", _with("package defaults without the feedback", extra),
              _jobs(task, "defaults_no_feedback", fm, others, WIDE_SEED0, demos, overrides=no_fb, env=env),
              {"overrides": list(no_fb)}),
         _row("wide", task, "k3000", "earlier defaults (k = 3000 N/m, no feedback)",
@@ -119,16 +129,18 @@ def force_task_cells(task: str, n: int, others: int, demos) -> list[Cell]:
     ]  # fmt: skip
 
 
-def grasp_cells(task: str, n: int, others: int, demos) -> list[Cell]:
-    """The wide rows of a grasping task: the defaults on every object (``n`` episodes each: the
-    targets hold on the unseen objects too), the paper's grasp settings on the demonstration object."""
+def grasp_cells(task: str, n: int, others: int, demos, extra: tuple[str, ...] = ()) -> list[Cell]:
+    """The wide rows of a grasping task: the defaults (with ``extra`` ``--set`` settings) on every
+    object (``n`` episodes each: the targets hold on the unseen objects too), the paper's grasp
+    settings on the demonstration object."""
     demo_obj, unseen = GRASP_TASKS[task]
     out = []
     for obj in (demo_obj, *unseen):
         env = {"randomize": "wide", "object": obj}
         out.append(
-            _row("grasp", task, "defaults", "package defaults",
-                 _jobs(task, "defaults", "forcemap", n, WIDE_SEED0, demos, env=env), {"overrides": []}, obj)
+            _row("grasp", task, "defaults", _with("package defaults", extra),
+                 _jobs(task, "defaults", "forcemap", n, WIDE_SEED0, demos, overrides=extra, env=env),
+                 {"overrides": list(extra)}, obj)
         )  # fmt: skip
     env = {"randomize": "wide", "object": demo_obj}
     tuned = (*PAPER_LAW, *GRASP_OVERRIDES)
@@ -140,12 +152,12 @@ def grasp_cells(task: str, n: int, others: int, demos) -> list[Cell]:
     return out
 
 
-def stiffness_cells(n: int) -> list[Cell]:
+def stiffness_cells(n: int, extra: tuple[str, ...] = ()) -> list[Cell]:
     """One checkpoint per task (demonstration 0) at controller stiffness x0.5, x1, x2; ``n`` episodes
-    per cell."""
+    per cell; ``extra``: ``--set`` settings of the defaults law."""
     out = []
     for task in (*FORCE_TASKS, *GRASP_TASKS):
-        laws = [("defaults", ())] + ([("k3000", PAPER_LAW)] if task in ("press", "erase") else [])
+        laws = [("defaults", extra)] + ([("k3000", PAPER_LAW)] if task in ("press", "erase") else [])
         for method, ov in laws:
             for scale in STIFFNESS_SCALES:
                 env = {"randomize": "paper", "stiffness_scale": scale}
@@ -184,14 +196,21 @@ def _cached(cell: Cell, workdir: Path) -> bool:
 
 
 def run(
-    s: Settings, n: int, others: int, stiffness_n: int, *, cached_only: bool = False, tasks=None
+    s: Settings,
+    n: int,
+    others: int,
+    stiffness_n: int,
+    *,
+    cached_only: bool = False,
+    tasks=None,
+    extra: tuple[str, ...] = (),
 ) -> dict[str, Any]:
-    """Run (or, with ``cached_only``, collect the finished) cells of ``tasks`` (default: all); the
-    records of ``results/wide.json``."""
+    """Run (or, with ``cached_only``, collect the finished) cells of ``tasks`` (default: all), the
+    defaults rows with the ``extra`` ``--set`` settings; the records of ``results/wide.json``."""
     demos = s.demos
-    cells = [c for t in FORCE_TASKS for c in force_task_cells(t, n, others, demos)]
-    cells += [c for t in GRASP_TASKS for c in grasp_cells(t, n, others, demos)]
-    cells += stiffness_cells(stiffness_n)
+    cells = [c for t in FORCE_TASKS for c in force_task_cells(t, n, others, demos, extra)]
+    cells += [c for t in GRASP_TASKS for c in grasp_cells(t, n, others, demos, extra)]
+    cells += stiffness_cells(stiffness_n, extra)
     cells = [c for c in cells if c.jobs and (not tasks or c.task in tasks)]  # --others 0: no such rows
     cells.sort(key=_priority)
     if cached_only:
@@ -255,13 +274,17 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--quick", action="store_true", help="smoke-test size (needs --out)")
     p.add_argument("--out", default=None, help="results folder (default results/)")
     p.add_argument("--workdir", default=None, help="cache folder (default outputs/experiments)")
+    add_set_argument(p)
     args = p.parse_args(argv)
     if args.quick and args.out is None:
         p.error("--quick writes a smoke-test report: give --out (results/ holds the real one)")
+    if args.overrides and args.out is None:
+        p.error("--set runs the defaults rows with other settings: give --out (results/ holds the defaults')")
     out = Path(args.out) if args.out else RESULTS
     workdir = Path(args.workdir) if args.workdir else (WORKDIR if not args.quick else out / "work")
     with usage_errors(p):
         check_int("--workers", args.workers, low=1)
+        make_config(overrides=args.overrides)  # a bad setting is refused before any work
     s = Settings(
         workers=args.workers,
         ray=args.ray,
@@ -274,7 +297,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.quick:
         s = replace(s, demos=(0,))
         n, others, stiff = 1, 1, 1
-    doc = run(s, n, others, stiff, cached_only=args.cached_only, tasks=args.tasks)
+    extra = tuple(args.overrides)
+    doc = run(s, n, others, stiff, cached_only=args.cached_only, tasks=args.tasks, extra=extra)
+    doc["set"] = list(extra)
     doc["learned"] = {t: learned_note(t, LEARNED_DIR) for t in args.tasks or (*FORCE_TASKS, *GRASP_TASKS)}
     out.mkdir(parents=True, exist_ok=True)
     (out / "wide.json").write_text(json.dumps(doc, indent=1))

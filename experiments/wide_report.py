@@ -162,7 +162,7 @@ def write_report(doc: dict[str, Any]) -> str:
         "",
         doc["protocol"].strip(),
         "",
-        "## Targets (package defaults)",
+        f"## Targets (package defaults{' + --set ' + ' '.join(doc['set']) if doc.get('set') else ''})",
         "",
     ]
     lines += target_lines(records)

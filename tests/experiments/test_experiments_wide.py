@@ -24,3 +24,31 @@ def test_workers_below_one_is_a_usage_error(capsys):
     with pytest.raises(SystemExit):
         wide.main(["--quick", "--out", "unused", "--workers", "0"])
     assert "--workers" in capsys.readouterr().err
+
+
+def test_set_runs_the_defaults_rows_with_the_settings(tmp_path):
+    extra = ("approach_speed=0.01",)
+    cells = wide.force_task_cells("press", 2, 1, (0,), extra) + wide.stiffness_cells(1, extra)
+    defaults = [c for c in cells if c.method == "defaults"]
+    assert defaults and all(j.overrides == extra for c in defaults for j in c.jobs)
+    assert all("--set approach_speed=0.01" in c.label for c in defaults if c.experiment == "wide")
+    no_feedback = next(c for c in cells if c.method == "defaults_no_feedback")
+    assert all(j.overrides == (*extra, "force_feedback=false") for j in no_feedback.jobs)
+    assert all(j.overrides == () for c in wide.force_task_cells("press", 2, 1, (0,)) if c.method == "defaults"
+               for j in c.jobs)  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--set", "approach_speed=0.01"], "--set runs the defaults rows with other settings: give --out"),
+        (
+            ["--set", "approach_sped=0.01", "--out", "unused"],
+            "--set approach_sped: not a ForceMapConfig field",
+        ),
+    ],
+)
+def test_set_needs_out_and_known_fields(argv, message, capsys):
+    with pytest.raises(SystemExit):
+        wide.main(argv)
+    assert message in capsys.readouterr().err
