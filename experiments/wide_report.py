@@ -130,8 +130,9 @@ def target_lines(records: list[dict[str, Any]]) -> list[str]:
     return lines
 
 
-def stiffness_lines(records: list[dict[str, Any]]) -> list[str]:
-    """The x0.5 / x1 / x2 table and its verdict per task and force law."""
+def stiffness_lines(records: list[dict[str, Any]], extra: list[str] | tuple[str, ...] = ()) -> list[str]:
+    """The x0.5 / x1 / x2 table and its verdict per task and force law (``extra``: the ``--set``
+    settings the defaults ran with, named in the law column)."""
     out = [
         "| task | law | success x0.5 / x1 / x2 | Δmax % x0.5 / x1 / x2 | Δmean % x0.5 / x1 / x2 | verdict |",
         "|---|---|---|---|---|---|",
@@ -147,8 +148,9 @@ def stiffness_lines(records: list[dict[str, Any]]) -> list[str]:
             spread = max(abs(d - dmean[1]) for d in dmean) if None not in dmean else float("nan")
             spread_max = max(abs(d - dmax[1]) for d in dmax) if None not in dmax else float("nan")
             ok = min(succ) >= 0.9 and spread <= STIFFNESS_SPREAD and spread_max <= STIFFNESS_SPREAD
+            law = f"{method} + --set {' '.join(extra)}" if method == "defaults" and extra else method
             out.append(
-                f"| {task} | {method} | {' / '.join(f'{100 * v:.0f} %' for v in succ)} | "
+                f"| {task} | {law} | {' / '.join(f'{100 * v:.0f} %' for v in succ)} | "
                 f"{' / '.join(_pct(v) for v in dmax)} | {' / '.join(_pct(v) for v in dmean)} | "
                 f"{'met' if ok else 'MISSED'} (Δmax within {spread_max:.1f}, Δmean within {spread:.1f} points of x1) |"
             )
@@ -187,7 +189,7 @@ def write_report(doc: dict[str, Any]) -> str:
         f"Target: success >= 90 % at every stiffness, and the force change within {STIFFNESS_SPREAD:g} points "
         "of the x1 figure.",
         "",
-        *stiffness_lines(records),
+        *stiffness_lines(records, doc.get("set", ())),
         "",
     ]
     return "\n".join(lines)

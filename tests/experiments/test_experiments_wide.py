@@ -52,3 +52,15 @@ def test_set_needs_out_and_known_fields(argv, message, capsys):
     with pytest.raises(SystemExit):
         wide.main(argv)
     assert message in capsys.readouterr().err
+
+
+def test_a_quick_run_with_set_names_the_settings_on_its_page(tmp_path):
+    out = tmp_path / "wide"
+    argv = ["--quick", "--out", str(out), "--tasks", "press", "--workers", "1"]
+    argv += ["--set", "approach_speed=0.01"]
+    assert wide.main(argv) == 0
+    report = (out / "wide.md").read_text()
+    assert "## Targets (package defaults + --set approach_speed=0.01)" in report
+    assert "| press | defaults + --set approach_speed=0.01 |" in report  # the stiffness table's law
+    assert "| press | k3000 |" in report
+    assert json.loads((out / "wide.json").read_text())["set"] == ["approach_speed=0.01"]
