@@ -1,16 +1,18 @@
 """Real demonstrations in their simulated twins: the paper's Table II on the lab recordings.
 
-    python -m experiments.twin [--workdir outputs/twin] [--out results/twin.md] [--set FIELD=VALUE ...]
+    python -m experiments.twin [--workdir outputs/twin] [--out results/twin.md]
+    python -m experiments.twin --set FIELD=VALUE ... --out DIR/twin.md
 
 For every real press and wipe recording (the UR5e files of the project's shared data): convert it
 (``forcemap convert`` defaults), build its twin (``forcemap twin``), replay the demonstration's
 actions in the twin, fit the forcemap policy one-shot from the same recording with the package
-defaults, or with ``--set`` settings as ``forcemap fit --set`` takes them, and run it in the twin. Writes ``results/twin.md`` (and ``.json``): the
-twin's calibration (tool-offset residual, the replay's reaction against the recording's: correlation
-and peak error) and, per recording, success, max and mean contact force of the replay and of the
-reproduction and their change, with the paper's Table II beside them. Converted recordings and
-fitted checkpoints are kept under ``WORKDIR/checkpoints/<code fingerprint>/``
-(``experiments.paper.jobs``): a code change converts and fits again; other versions' folders go.
+defaults (or ``--set`` settings, as ``forcemap fit --set`` takes them, into ``--out``) and run it in
+the twin. Writes ``results/twin.md`` (and ``.json``): the twin's calibration (tool-offset residual,
+the replay's reaction against the recording's: correlation and peak error) and, per recording,
+success, max and mean contact force of the replay and of the reproduction and their change, with
+the paper's Table II beside them. Converted recordings and fitted checkpoints are kept under
+``WORKDIR/checkpoints/<code fingerprint>/`` (``experiments.paper.jobs``): a code change converts
+and fits again; other versions' folders go.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from lerobot_forcemap._validation import usage_errors
 from lerobot_forcemap.cli.fit import add_set_argument, make_config
 from lerobot_forcemap.shared_data import find_shared_data
 
@@ -209,10 +212,13 @@ def render(rows: list[dict], overrides: Sequence[str] = ()) -> str:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--workdir", default=str(REPO / "outputs" / "twin"))
-    parser.add_argument("--out", default=str(REPO / "results" / "twin.md"))
+    parser.add_argument("--out", default=None, help="the page (default results/twin.md; needed with --set)")
     add_set_argument(parser)
     args = parser.parse_args(argv)
-    make_config(overrides=args.overrides)  # a bad setting is refused before any work
+    if args.overrides and args.out is None:
+        parser.error("--set fits with other settings: give --out (results/twin.md holds the defaults')")
+    with usage_errors(parser):
+        make_config(overrides=args.overrides)  # a bad setting is refused before any work
     root = find_shared_data("ur5e")
     if root is None:
         raise SystemExit("experiments.twin: the real recordings (shared data ur5e/) are not there")
@@ -224,7 +230,7 @@ def main(argv: list[str] | None = None) -> int:
     for name in RECORDINGS:
         rows.append(run_one(name, root / "ur5e" / f"{name}.h5", workdir, args.overrides))
         print(json.dumps({k: rows[-1][k] for k in ("recording", "demo", "repro", "change_pct")}), flush=True)
-    out = Path(args.out)
+    out = Path(args.out) if args.out else REPO / "results" / "twin.md"
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(render(rows, args.overrides))
     out.with_suffix(".json").write_text(json.dumps(rows, indent=1) + "\n")
