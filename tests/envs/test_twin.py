@@ -14,7 +14,6 @@ from lerobot_forcemap.data.reader import read_episodes
 from lerobot_forcemap.envs import make
 from lerobot_forcemap.envs.tasks import press as press_task
 from lerobot_forcemap.envs.twin import build_twin, make_twin, read_recording, replay, replay_actions
-from lerobot_forcemap.shared_data import find_shared_data
 
 REPO = Path(__file__).resolve().parents[2]
 PRESS = REPO / "datasets" / "press"
@@ -81,13 +80,10 @@ def test_refuses_a_recording_without_ur5e_joints():
 
 @pytest.mark.realdata
 @pytest.mark.slow
-def test_real_press_and_wipe_twins(tmp_path):
+def test_real_press_and_wipe_twins(shared_data, tmp_path):
     from lerobot_forcemap.data.convert import convert_recordings
 
-    root = find_shared_data("ur5e")
-    if root is None:
-        pytest.skip("no real recordings")
-    ur5e = root / "ur5e"
+    ur5e = shared_data / "ur5e"
     convert_recordings([ur5e / "press_2023-07-27_160940.h5"], tmp_path / "press")
     convert_recordings([ur5e / "erase_2024-09-09_153311.h5"], tmp_path / "erase")
     convert_recordings([ur5e / "circle_cw1.h5"], tmp_path / "circle")

@@ -8,7 +8,6 @@ import json
 import pytest
 
 from experiments.twin import REPO, main, render, run_one
-from lerobot_forcemap.shared_data import find_shared_data
 
 WIPE = "erase_2024-09-09_153311"
 
@@ -37,11 +36,8 @@ def test_set_needs_out_and_known_fields_before_any_work(argv, message, tmp_path,
 
 @pytest.mark.realdata
 @pytest.mark.slow
-def test_settings_reach_the_fit_and_get_their_own_checkpoint(tmp_path):
-    root = find_shared_data("ur5e")
-    if root is None:
-        pytest.skip("no real recordings")
-    row = run_one(WIPE, root / "ur5e" / f"{WIPE}.h5", tmp_path, ["contact_yield=0.25"])
+def test_settings_reach_the_fit_and_get_their_own_checkpoint(shared_data, tmp_path):
+    row = run_one(WIPE, shared_data / "ur5e" / f"{WIPE}.h5", tmp_path, ["contact_yield=0.25"])
     assert row["demo"]["success"]
     (fits,) = [d for d in tmp_path.iterdir() if d.name.startswith("checkpoints-")]
     config = json.loads((fits / WIPE / "config.json").read_text())
