@@ -101,7 +101,7 @@ def _row(exp, task, method, label, jobs, settings, obj=None) -> Cell:
     return Cell(exp, task, method, label, jobs, settings=settings, object=obj, design="split")
 
 
-def _with(label: str, extra: tuple[str, ...]) -> str:
+def with_set(label: str, extra: tuple[str, ...] | list[str]) -> str:
     """``label`` naming the ``--set`` settings that its rows run with."""
     return f"{label} + --set {' '.join(extra)}" if extra else label
 
@@ -112,9 +112,9 @@ def force_task_cells(task: str, n: int, others: int, demos, extra: tuple[str, ..
     fm = "forcemap"
     no_fb = (*extra, "force_feedback=false")
     return [
-        _row("wide", task, "defaults", _with("package defaults (k = 0.8 K_demo, force feedback 6.5 N + depth)", extra),
+        _row("wide", task, "defaults", with_set("package defaults (k = 0.8 K_demo, force feedback 6.5 N + depth)", extra),
              _jobs(task, "defaults", fm, n, WIDE_SEED0, demos, overrides=extra, env=env), {"overrides": list(extra)}),
-        _row("wide", task, "defaults_no_feedback", _with("package defaults without the feedback", extra),
+        _row("wide", task, "defaults_no_feedback", with_set("package defaults without the feedback", extra),
              _jobs(task, "defaults_no_feedback", fm, others, WIDE_SEED0, demos, overrides=no_fb, env=env),
              {"overrides": list(no_fb)}),
         _row("wide", task, "k3000", "earlier defaults (k = 3000 N/m, no feedback)",
@@ -138,7 +138,7 @@ def grasp_cells(task: str, n: int, others: int, demos, extra: tuple[str, ...] = 
     for obj in (demo_obj, *unseen):
         env = {"randomize": "wide", "object": obj}
         out.append(
-            _row("grasp", task, "defaults", _with("package defaults", extra),
+            _row("grasp", task, "defaults", with_set("package defaults", extra),
                  _jobs(task, "defaults", "forcemap", n, WIDE_SEED0, demos, overrides=extra, env=env),
                  {"overrides": list(extra)}, obj)
         )  # fmt: skip

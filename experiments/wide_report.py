@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from experiments.wide import FORCE_TASKS, STIFFNESS_SCALES
+from experiments.wide import FORCE_TASKS, STIFFNESS_SCALES, with_set
 
 GRASP = ("grasp_push", "grasp_flip")
 #: the order of a task table's rows
@@ -148,7 +148,7 @@ def stiffness_lines(records: list[dict[str, Any]], extra: list[str] | tuple[str,
             spread = max(abs(d - dmean[1]) for d in dmean) if None not in dmean else float("nan")
             spread_max = max(abs(d - dmax[1]) for d in dmax) if None not in dmax else float("nan")
             ok = min(succ) >= 0.9 and spread <= STIFFNESS_SPREAD and spread_max <= STIFFNESS_SPREAD
-            law = f"{method} + --set {' '.join(extra)}" if method == "defaults" and extra else method
+            law = with_set(method, extra) if method == "defaults" else method
             out.append(
                 f"| {task} | {law} | {' / '.join(f'{100 * v:.0f} %' for v in succ)} | "
                 f"{' / '.join(_pct(v) for v in dmax)} | {' / '.join(_pct(v) for v in dmean)} | "
@@ -164,7 +164,7 @@ def write_report(doc: dict[str, Any]) -> str:
         "",
         doc["protocol"].strip(),
         "",
-        f"## Targets (package defaults{' + --set ' + ' '.join(doc['set']) if doc.get('set') else ''})",
+        f"## Targets ({with_set('package defaults', doc.get('set', ()))})",
         "",
     ]
     lines += target_lines(records)
