@@ -18,13 +18,12 @@ from __future__ import annotations
 
 import ctypes
 import functools
-import importlib.util
 import os
-import warnings
 
 import numpy as np
 from numpy.typing import NDArray
 
+from .._ckernel import load_library
 from .weights import ForceNodeSums, ForcePoints
 
 __all__ = ["EMKernel", "load_em_kernel", "NUMPY_ENV"]
@@ -39,36 +38,14 @@ ABI_VERSION = 1
 
 @functools.cache
 def _library() -> ctypes.CDLL | None:
-    try:
-        spec = importlib.util.find_spec("lerobot_forcemap.elmap._emkernel")
-    except (ImportError, ValueError):
-        return None
-    if spec is None or not spec.origin:
-        return None
-    try:
-        lib = ctypes.CDLL(spec.origin)
-        lib.fm_abi_version.restype = ctypes.c_int64
-        built = lib.fm_abi_version()
-    except (OSError, AttributeError):
-        return None
-    if built != ABI_VERSION:
-        warnings.warn(
-            f"{spec.origin} was built from another version of _emkernel.c (ABI {built}, need "
-            f"{ABI_VERSION}); using the NumPy EM path. Reinstall the package (pip install -e .) to rebuild it.",
-            stacklevel=2,
-        )
-        return None
-    # argument types, one letter each: i int64, p pointer, d double, c int (see _emkernel.c)
-    kinds = {"i": ctypes.c_int64, "p": ctypes.c_void_p, "d": ctypes.c_double, "c": ctypes.c_int}
-    for name, letters, restype in (
-        ("fm_assign", "iiipppcpppppdppppp", ctypes.c_int64),
-        ("fm_cluster_sums", "iiippppp", None),
-        ("fm_force_sums", "iiippppppddcpp", ctypes.c_double),
-    ):
-        function = getattr(lib, name)
-        function.argtypes = [kinds[k] for k in letters]
-        function.restype = restype
-    return lib
+    signatures = {
+        "fm_assign": ("iiipppcpppppdppppp", ctypes.c_int64),
+        "fm_cluster_sums": ("iiippppp", None),
+        "fm_force_sums": ("iiippppppddcpp", ctypes.c_double),
+    }  # argument types, one letter each (see _ckernel.KINDS and _emkernel.c)
+    return load_library(
+        "lerobot_forcemap.elmap._emkernel", "fm_abi_version", ABI_VERSION, signatures, "the NumPy EM path"
+    )
 
 
 def load_em_kernel() -> ctypes.CDLL | None:
