@@ -21,7 +21,7 @@ XDIST := -n $(PYTEST_WORKERS) --dist loadfile
 
 venv: $(VENV)/.installed
 
-$(VENV)/.installed: pyproject.toml constraints.txt setup.py lerobot_forcemap/elmap/_emkernel.c
+$(VENV)/.installed: pyproject.toml constraints.txt setup.py lerobot_forcemap/elmap/_emkernel.c lerobot_forcemap/envs/_stepkernel.c
 	@if [ -z "$(PYTHON312)" ]; then echo "error: python3.12 not found (set PYTHON312=/path/to/python3.12)" >&2; exit 1; fi
 	@[ -x $(PY) ] || $(PYTHON312) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade "pip>=24"

@@ -1,7 +1,8 @@
-"""Build step for the one compiled part: the EM's per-sample loops (lerobot_forcemap/elmap/_emkernel.c).
+"""Build step for the compiled parts: the EM's per-sample loops (lerobot_forcemap/elmap/_emkernel.c) and
+the envs' per-step force processing (lerobot_forcemap/envs/_stepkernel.c).
 
-Everything else is in pyproject.toml. The extension is optional: without a C compiler the install
-goes on (with a warning) and the elastic-map fit runs its NumPy path, which gives the same numbers,
+Everything else is in pyproject.toml. The extensions are optional: without a C compiler the install
+goes on (with a warning) and the fit and the envs run their NumPy paths, which give the same numbers,
 only slower.
 """
 
@@ -19,6 +20,12 @@ setup(
             sources=["lerobot_forcemap/elmap/_emkernel.c"],
             extra_compile_args=FLAGS,
             optional=True,
-        )
+        ),
+        Extension(
+            "lerobot_forcemap.envs._stepkernel",
+            sources=["lerobot_forcemap/envs/_stepkernel.c"],
+            extra_compile_args=FLAGS,
+            optional=True,
+        ),
     ]
 )

@@ -54,10 +54,11 @@ from ..layout import (
     state_names,
 )
 from .control import ClipReport, clip_target, interpolate_targets, set_impedance_damping, solve_ik
+from .forces import BlockForces, load_step_kernel
 from .physics import BlockStepper
 from .robots import RobotSpec, get_robot
 from .scene import CAMERA, BaseFrame, build_scene, index_scene
-from .sensing import ForceStats, LowPass, Payload, force_norms, reaction_wrench_base
+from .sensing import ForceStats, LowPass, Payload
 from .tasks.base import ForceTask, StartState, StepBlock, TaskStatus
 from .variation import SceneVariation, check_level, scale_stiffness
 
@@ -140,6 +141,20 @@ class ForceTaskEnv(gym.Env):
         # one filter over the block's columns [wrench (6) | contact force (3) | fingertip forces (3 each)]
         self._force_filter = LowPass(self.force_cutoff_hz, self.timestep, 9 + 3 * self._n_fingers)
         self._stepper = BlockStepper(self.model, self.data, self.index.mocap, self.n_substeps)
+        self._forces = BlockForces(
+            wrench_cols=self._wrench_cols,
+            quat_cols=self.index.ft_quat,
+            contact_cols=self._contact_cols,
+            held_pairs=self._held_pairs,
+            held_found_cols=self._held_found_cols,
+            finger_cols=self._finger_cols,
+            finger_sign=self.robot.gripper.finger_sensor_sign,
+            frame=self.frame,
+            base_rot_inv=self._base_rot_inv,
+            force_filter=self._force_filter,
+            rows=self._stepper.buffer,
+            lib=load_step_kernel(),
+        )
         self._renderers: dict[int, mujoco.Renderer] = {}
         self._episode_started = False
 
@@ -353,6 +368,7 @@ class ForceTaskEnv(gym.Env):
         t = self.task_impl  # the protective-stop limits of the same signals (inf: none)
         finger_limit = np.inf if t.finger_force_limit is None else t.finger_force_limit
         self._force_limits = np.array([t.force_limit] + [finger_limit] * self._n_fingers)
+        self._forces.start_episode(self.payload, self.bias_site, self._force_limits)
         self._t0 = float(self.data.time)
         self._steps = 0
         self._n_clipped = 0
@@ -398,7 +414,7 @@ class ForceTaskEnv(gym.Env):
         lo, hi = self.index.gripper_ctrlrange
         d.ctrl[self.index.gripper_actuator] = lo + grip * (hi - lo)
         buf = stepper.run()
-        forces, norms, stop_at = self._process_block(buf)
+        forces, norms, stop_at = self._forces(buf)
         n = self.n_substeps if stop_at is None else self._protective_stop_at(stop_at)
         forces = forces[:n]
         self._commit_filter(forces)
@@ -460,43 +476,10 @@ class ForceTaskEnv(gym.Env):
         self._protective_stop = True
         return stop_at + 1
 
-    def _process_block(self, buf: np.ndarray) -> tuple[np.ndarray, np.ndarray, int | None]:
-        """Filtered forces of the block ``(n, 9 + 3 n_fingers)``: tared wrist wrench (6), summed contact
-        force (3), fingertip forces (3 each), all base frame; the norms ``(n, 1 + n_fingers)`` of the
-        contact and fingertip forces; the first physics step over a force limit (None: none)."""
-        ix = self.index
-        n = len(buf)
-        raw = np.empty((n, 9 + 3 * self._n_fingers))
-        reaction_wrench_base(
-            buf[:, self._wrench_cols],
-            buf[:, ix.ft_quat],
-            self.payload,
-            self.bias_site,
-            self._base_rot_inv,
-            out=raw[:, :6],
-        )
-        pairs = buf[:, self._contact_cols].reshape(n, -1, 3)  # a copy (fancy index): safe to gate in place
-        if self._held_found_cols.size:
-            # a let-go body resting on the table or peg pushes on them, not on the robot
-            pairs[:, self._held_pairs] *= (buf[:, self._held_found_cols] > 0)[:, :, None]
-        contact_w = pairs.sum(axis=1)
-        raw[:, 6:9] = contact_w if self.frame.is_identity else self.frame.vec_to_base(contact_w)
-        if self._n_fingers:
-            f_w = buf.take(self._finger_cols, axis=1) * self.robot.gripper.finger_sensor_sign
-            if self.frame.is_identity:
-                raw[:, 9:] = f_w
-            else:
-                raw[:, 9:] = self.frame.vec_to_base(f_w.reshape(n, -1, 3)).reshape(n, -1)
-        forces = self._force_filter(raw)
-        norms = force_norms(forces[:, 6:].reshape(n, -1, 3))
-        over = norms > self._force_limits
-        stop_at = int(over.any(axis=1).argmax()) if np.count_nonzero(over) else None
-        return forces, norms, stop_at
-
     def _commit_filter(self, forces: np.ndarray) -> None:
         # The filter ran over the whole block; after a protective stop only its first rows happened.
         last = forces[-1]
-        self._force_filter.state = last.copy()
+        self._force_filter.state = last
         self._wrench = last[:6]
         self._contact = last[6:9]
         self._finger = last[9:]

@@ -52,7 +52,8 @@ class BlockStepper:
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, mocap_id: int, n_steps: int):
         self.model, self.data, self.mocap_id, self.n_steps = model, data, mocap_id, n_steps
         self._saved = np.empty(mujoco.mj_stateSize(model, _INTEGRATION))
-        self._rows = np.empty((1, n_steps, model.nsensordata))
+        #: ``(1, n, nsensordata)``: every block's sensor rows; :meth:`run` and :meth:`loop` return its leading rows
+        self.buffer = self._rows = np.empty((1, n_steps, model.nsensordata))
         # per physics step, all user inputs (mjSTATE_USER): the target mocap's pose changes, the rest holds
         user_start = _offset(model, _INTEGRATION, _S.mjSTATE_CTRL)
         n_user = mujoco.mj_stateSize(model, _USER)

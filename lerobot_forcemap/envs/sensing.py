@@ -32,7 +32,7 @@ class Payload:
     com_site: np.ndarray  # (3,)
 
     def __post_init__(self):
-        self._cross_com_t = _skew(self.com_site).T  # f @ this = c x f, row-wise
+        self.cross_com_t = _skew(self.com_site).T  # f @ this = c x f, row-wise
 
     def expected_wrench(self, quat_site: np.ndarray) -> np.ndarray:
         """Sensor reading ``(n, 6)`` (site frame) of the payload at rest for site orientations ``(n, 4)``.
@@ -43,7 +43,7 @@ class Payload:
 
     def expected_wrench_from_mat(self, rot: np.ndarray) -> np.ndarray:
         f_site = self.mass * GRAVITY * rot[:, 2, :]  # R^T (0, 0, m g): the third row of R
-        t_site = f_site @ self._cross_com_t  # c x f
+        t_site = f_site @ self.cross_com_t  # c x f
         return np.concatenate([f_site, t_site], axis=1)
 
 
@@ -94,16 +94,26 @@ class LowPass:
         self._b = np.array([self.alpha])
         self._a = np.array([1.0, self.alpha - 1.0])
         self.dim = dim
-        self.state = np.zeros(dim)
+        self._state = np.zeros(dim)
+
+    @property
+    def state(self) -> np.ndarray:
+        """The last output ``(dim,)``: one array for the filter's life (the env's compiled force loops
+        hold its address); assigning copies into it."""
+        return self._state
+
+    @state.setter
+    def state(self, value: np.ndarray | float) -> None:
+        self._state[...] = value
 
     def reset(self, value: np.ndarray | float = 0.0) -> None:
-        self.state = np.broadcast_to(np.asarray(value, dtype=float), (self.dim,)).copy()
+        self.state = value
 
     def __call__(self, block: np.ndarray) -> np.ndarray:
         """Filter ``block (n, dim)``; returns ``(n, dim)`` and advances the state."""
         zi = ((1.0 - self.alpha) * self.state)[None, :]
         out, _ = self._lfilter(self._b, self._a, block, 0, zi)
-        self.state = out[-1].copy()
+        self.state = out[-1]
         return out
 
 
