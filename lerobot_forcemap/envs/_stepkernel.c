@@ -27,6 +27,7 @@ typedef struct {
     const double *bias, *limits, *state; /* tare (6); limits (1 + nf); the filter's last output (dim) */
     double *rot, *fsite, *tsite, *tool, *rotated, *out, *norms; /* work and result arrays */
     double mg, fsign, alpha, a1, omalpha; /* payload weight; fingertip sign; filter coefficients */
+    double *max_norm, *sum_norm, *max_abs, *sum_abs; /* the episode's ForceStats: (m,), (m,), (m, 3), (m, 3) */
 } fs_plan;
 
 /* Entry k of a row-major rotation matrix is 2 (p + s q) (the diagonal: 1 minus that), with p, q the
@@ -140,4 +141,65 @@ int64_t fs_block(const fs_plan *pl, int64_t n)
         }
     }
     return stop;
+}
+
+/* NumPy's pairwise sum of n doubles with a stride (its add.reduce of a contiguous row): 8 partial sums
+ * for blocks of up to 128, halves above. */
+static double pairwise_sum(const double *a, int64_t n, int64_t stride)
+{
+    if (n < 8) {
+        double res = 0.0;
+        for (int64_t i = 0; i < n; i++) {
+            res += a[i * stride];
+        }
+        return res;
+    }
+    if (n <= 128) {
+        double r[8];
+        int64_t i;
+        for (int j = 0; j < 8; j++) {
+            r[j] = a[j * stride];
+        }
+        for (i = 8; i < n - (n % 8); i += 8) {
+            for (int j = 0; j < 8; j++) {
+                r[j] += a[(i + j) * stride];
+            }
+        }
+        double res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
+        for (; i < n; i++) {
+            res += a[i * stride];
+        }
+        return res;
+    }
+    int64_t n2 = n / 2;
+    n2 -= n2 % 8;
+    return pairwise_sum(a, n2, stride) + pairwise_sum(a + n2 * stride, n - n2, stride);
+}
+
+/* NaN-propagating maximum (np.maximum, ndarray.max). */
+static double nan_max(double a, double b) { return (a != a || a > b) ? a : (b != b ? b : (a >= b ? a : b)); }
+
+/* ForceStats.update of the first n rows of out (columns 6..: m = 1 + nf signals of 3) and norms:
+ * maxima, the norms' sums (pairwise, per signal) and the absolute components' sums (row by row). */
+void fs_stats(const fs_plan *pl, int64_t n)
+{
+    const int64_t m = 1 + pl->nf, dim = 9 + 3 * pl->nf;
+    for (int64_t k = 0; k < m; k++) {
+        double top = pl->norms[k];
+        for (int64_t r = 1; r < n; r++) {
+            top = nan_max(top, pl->norms[m * r + k]);
+        }
+        pl->max_norm[k] = nan_max(pl->max_norm[k], top);
+        pl->sum_norm[k] = pl->sum_norm[k] + pairwise_sum(pl->norms + k, n, m);
+        for (int i = 0; i < 3; i++) {
+            const double *f = pl->out + 6 + 3 * k + i;
+            double big = fabs(f[0]), sum = fabs(f[0]);
+            for (int64_t r = 1; r < n; r++) {
+                big = nan_max(big, fabs(f[dim * r]));
+                sum = sum + fabs(f[dim * r]);
+            }
+            pl->max_abs[3 * k + i] = nan_max(pl->max_abs[3 * k + i], big);
+            pl->sum_abs[3 * k + i] = pl->sum_abs[3 * k + i] + sum;
+        }
+    }
 }

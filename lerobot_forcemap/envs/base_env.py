@@ -368,7 +368,7 @@ class ForceTaskEnv(gym.Env):
         t = self.task_impl  # the protective-stop limits of the same signals (inf: none)
         finger_limit = np.inf if t.finger_force_limit is None else t.finger_force_limit
         self._force_limits = np.array([t.force_limit] + [finger_limit] * self._n_fingers)
-        self._forces.start_episode(self.payload, self.bias_site, self._force_limits)
+        self._forces.start_episode(self.payload, self.bias_site, self._force_limits, self.force_stats)
         self._t0 = float(self.data.time)
         self._steps = 0
         self._n_clipped = 0
@@ -418,7 +418,7 @@ class ForceTaskEnv(gym.Env):
         n = self.n_substeps if stop_at is None else self._protective_stop_at(stop_at)
         forces = forces[:n]
         self._commit_filter(forces)
-        self.force_stats.update(forces[:, 6:].reshape(n, -1, 3), norms[:n])
+        self._forces.add_to_stats(forces, norms[:n])
 
         self._prev_pos, self._prev_quat = pos_b, quat_b
         self._prev_pos_w, self._prev_quat_w = pos_w, quat_w
@@ -557,7 +557,7 @@ class ForceTaskEnv(gym.Env):
         if self.variation.wide:
             info["variation"] = self.variation.draw.as_info()
         if self._n_fingers:
-            info["max_finger_force"] = max_norm[1:]
+            info["max_finger_force"] = max_norm[1:].copy()
             info["mean_finger_force"] = mean_norm[1:]
         info.update(self.task_impl.episode_metrics())
         return info

@@ -21,7 +21,7 @@ import os
 import numpy as np
 
 from .._ckernel import load_library
-from .sensing import GRAVITY, LowPass, Payload, force_norms, reaction_wrench_base
+from .sensing import GRAVITY, ForceStats, LowPass, Payload, force_norms, reaction_wrench_base
 
 try:  # np.einsum calls it (optimize=False); its Python wrapper costs more than a (25, 3, 3) block
     from numpy._core.multiarray import c_einsum as _einsum
@@ -41,6 +41,7 @@ def _library() -> ctypes.CDLL | None:
         "fs_rotations": ("pi", None),
         "fs_tool": ("pi", None),
         "fs_block": ("pi", ctypes.c_int64),
+        "fs_stats": ("pi", None),
     }  # argument types, one letter each (see _ckernel.KINDS and _stepkernel.c): the plan, the row count
     # PyDLL: calls of a few microseconds keep the GIL rather than pay for releasing it
     return load_library(
@@ -105,16 +106,24 @@ class BlockForces:
         self.payload: Payload | None = None
         self.bias_site = np.zeros(6)
         self.limits = np.full(1 + self.n_fingers, np.inf)
+        self.stats = ForceStats(1 + self.n_fingers)
+        self._last_compiled = False
         self.lib = lib if frame.is_identity and force_filter.dim <= _MAX_DIM else None
         if self.lib is not None:
             self._bind(rows)
 
-    def start_episode(self, payload: Payload, bias_site: np.ndarray, limits: np.ndarray) -> None:
-        """The payload and tare of the episode's F/T sensor, and the limits of the contact force and each
-        fingertip force (N; inf: none)."""
+    def start_episode(
+        self, payload: Payload, bias_site: np.ndarray, limits: np.ndarray, stats: ForceStats
+    ) -> None:
+        """The payload and tare of the episode's F/T sensor, the limits of the contact force and each
+        fingertip force (N; inf: none), and the statistics :meth:`add_to_stats` adds to."""
         self.payload, self.bias_site = payload, np.asarray(bias_site, dtype=float)
         self.limits = np.ascontiguousarray(limits, dtype=float)
+        self.stats = stats
         if self.lib is not None:
+            plan = self._plan
+            plan.max_norm, plan.sum_norm = stats.max_norm.ctypes.data, stats.sum_norm.ctypes.data
+            plan.max_abs, plan.sum_abs = stats.max_abs.ctypes.data, stats.sum_abs.ctypes.data
             self._cross_com_t = payload.cross_com_t  # the NumPy path's operand, layout and all
             self._bias[:], self._limits[:] = self.bias_site, self.limits
             self._plan.mg = payload.mass * GRAVITY
@@ -124,9 +133,21 @@ class BlockForces:
         (None: none) of the sensor rows ``buf (n, nsensordata)``. The C path serves the leading rows of
         ``rows`` (how :class:`~.physics.BlockStepper` hands out its blocks), its arrays are overwritten by
         the next call; any other ``buf`` takes the NumPy path."""
-        if self.lib is None or buf.base is not self._rows:
+        self._last_compiled = self.lib is not None and buf.base is self._rows
+        if not self._last_compiled:
             return self.numpy(buf)
         return self._compiled(len(buf))
+
+    def add_to_stats(self, forces: np.ndarray, norms: np.ndarray) -> None:
+        """Add the leading rows of the last call's ``forces`` and ``norms`` (the rows that happened) to
+        the episode's statistics (``ForceStats.update`` of the contact and fingertip signals)."""
+        n = len(forces)
+        if self._last_compiled:
+            if n:
+                self.lib.fs_stats(self._plan_at, n)
+                self.stats.count += n
+        else:
+            self.stats.update(forces[:, 6:].reshape(n, -1, 3), norms)
 
     def numpy(self, buf: np.ndarray) -> tuple[np.ndarray, np.ndarray, int | None]:
         """The NumPy path of :meth:`__call__` (new arrays)."""
@@ -183,10 +204,10 @@ class BlockForces:
         }
         alpha = self.filter.alpha
         self._plan = _Plan(
-            buf=rows.ctypes.data, ns=ns, qcols=qcols, wcols=wcols, npairs=len(self._int_arrays[3]), ccols=ccols,
-            gate=gate,
-            nf=self.n_fingers, fcols=fcols, state=self.filter.state.ctypes.data, **pointers, mg=0.0,
-            fsign=float(self.finger_sign), alpha=alpha, a1=alpha - 1.0, omalpha=1.0 - alpha,
+            buf=rows.ctypes.data, ns=ns, qcols=qcols, wcols=wcols, npairs=len(self._int_arrays[3]),
+            ccols=ccols, gate=gate, nf=self.n_fingers, fcols=fcols, state=self.filter.state.ctypes.data,
+            **pointers, mg=0.0, fsign=float(self.finger_sign), alpha=alpha, a1=alpha - 1.0, omalpha=1.0 - alpha,
+            **{name: getattr(self.stats, name).ctypes.data for name in ("max_norm", "sum_norm", "max_abs", "sum_abs")},
         )  # fmt: skip
         self._plan_at = ctypes.addressof(self._plan)
         self._rot3 = self._rot.reshape(n_rows, 3, 3)
@@ -216,5 +237,6 @@ class _Plan(ctypes.Structure):
         ("rot", ctypes.c_void_p), ("fsite", ctypes.c_void_p), ("tsite", ctypes.c_void_p), ("tool", ctypes.c_void_p),
         ("rotated", ctypes.c_void_p), ("out", ctypes.c_void_p), ("norms", ctypes.c_void_p),
         ("mg", ctypes.c_double), ("fsign", ctypes.c_double), ("alpha", ctypes.c_double), ("a1", ctypes.c_double),
-        ("omalpha", ctypes.c_double),
+        ("omalpha", ctypes.c_double), ("max_norm", ctypes.c_void_p), ("sum_norm", ctypes.c_void_p),
+        ("max_abs", ctypes.c_void_p), ("sum_abs", ctypes.c_void_p),
     ]  # fmt: skip

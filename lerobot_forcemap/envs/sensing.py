@@ -126,19 +126,20 @@ class ForceStats:
     """Running max / mean of ``n_signals`` force signals (base frame): norm and per-axis absolute values.
 
     :meth:`update` takes a block ``(n, n_signals, 3)``; ``max_norm``, ``mean_norm`` are ``(n_signals,)``,
-    ``max_abs``, ``mean_abs`` ``(n_signals, 3)``, all 0 before the first sample.
+    ``max_abs``, ``mean_abs`` ``(n_signals, 3)``, all 0 before the first sample. The four running arrays
+    are updated in place (the env's compiled force loops hold their addresses): copy what you keep.
     """
 
     def __init__(self, n_signals: int = 1):
         self.n_signals = n_signals
-        self.reset()
+        m = n_signals
+        self.max_norm, self.sum_norm = np.zeros(m), np.zeros(m)
+        self.max_abs, self.sum_abs = np.zeros((m, 3)), np.zeros((m, 3))
+        self.count = 0
 
     def reset(self) -> None:
-        m = self.n_signals
-        self.max_norm = np.zeros(m)
-        self.sum_norm = np.zeros(m)
-        self.max_abs = np.zeros((m, 3))
-        self.sum_abs = np.zeros((m, 3))
+        for a in (self.max_norm, self.sum_norm, self.max_abs, self.sum_abs):
+            a.fill(0.0)
         self.count = 0
 
     def update(self, force: np.ndarray, norm: np.ndarray | None = None) -> None:
@@ -148,11 +149,11 @@ class ForceStats:
         if norm is None:
             norm = force_norms(force)
         absf = np.abs(force)
-        self.max_norm = np.maximum(self.max_norm, norm.max(axis=0))
+        np.maximum(self.max_norm, norm.max(axis=0), out=self.max_norm)
         # each signal's sum over its own contiguous row: NumPy's pairwise sum, as for one signal alone
-        self.sum_norm = self.sum_norm + np.ascontiguousarray(norm.T).sum(axis=1)
-        self.max_abs = np.maximum(self.max_abs, absf.max(axis=0))
-        self.sum_abs = self.sum_abs + absf.sum(axis=0)
+        self.sum_norm += np.ascontiguousarray(norm.T).sum(axis=1)
+        np.maximum(self.max_abs, absf.max(axis=0), out=self.max_abs)
+        self.sum_abs += absf.sum(axis=0)
         self.count += len(force)
 
     @property

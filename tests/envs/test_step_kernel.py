@@ -7,14 +7,17 @@ the two paths of :class:`~lerobot_forcemap.envs.forces.BlockForces` are compared
 
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
 import pytest
 
 import lerobot_forcemap.envs as E
 from lerobot_forcemap.envs import forces
 from lerobot_forcemap.envs.demonstrators import make_demonstrator, run_demonstration
+from lerobot_forcemap.envs.rollout import run_episode
 from lerobot_forcemap.envs.scene import BaseFrame
-from lerobot_forcemap.envs.sensing import LowPass
+from lerobot_forcemap.envs.sensing import ForceStats, LowPass
 
 TASKS = ("press", "erase", "peg_in_hole", "grasp_push", "grasp_flip")
 
@@ -64,13 +67,14 @@ def test_compiled_blocks_equal_the_numpy_path(lib, task):
 
 def test_protective_stop_row_and_extreme_values_agree(lib):
     """Random rows at several scales, ramping up along the block (limits crossed at varying rows), through
-    both paths."""
+    both paths, and the statistics of a random number of their leading rows."""
     env = E.make("grasp_flip", render_mode=None)
     env.reset(seed=0)
     block = env.unwrapped._forces
     rows = block._rows[0]
     rng = np.random.default_rng(3)
     stops = set()
+    want_stats = ForceStats(block.stats.n_signals)
     ramp = np.linspace(0.0, 1.0, len(rows))[:, None]
     for scale in (1e-3, 1.0, 30.0, 1e4):
         for _ in range(20):
@@ -80,13 +84,41 @@ def test_protective_stop_row_and_extreme_values_agree(lib):
             block.filter.state = rng.normal(size=block.filter.dim) * 1e-3 * scale
             state = block.filter.state.copy()
             got = [a.copy() if isinstance(a, np.ndarray) else a for a in block(rows[:n])]
+            k = int(rng.integers(1, n + 1))  # the rows that happened (a protective stop keeps the first)
+            block.add_to_stats(got[0][:k], got[1][:k])
             block.filter.state = state
             want = block.numpy(rows[:n].copy())  # a copy: not the stepper's buffer
             assert got[0].tobytes() == want[0].tobytes() and got[1].tobytes() == want[1].tobytes()
             assert got[2] == want[2]
+            want_stats.update(want[0][:k, 6:].reshape(k, -1, 3), want[1][:k])
+            for name in ("max_norm", "sum_norm", "max_abs", "sum_abs", "count"):
+                a, b = getattr(block.stats, name), getattr(want_stats, name)
+                assert np.asarray(a).tobytes() == np.asarray(b).tobytes(), name
             stops.add(got[2])
     env.close()
     assert None in stops and len(stops) > 2  # blocks with no stop and stops at several rows
+
+
+@pytest.mark.parametrize("task", ["peg_in_hole", "grasp_flip"])
+def test_episodes_equal_those_of_the_numpy_path(lib, monkeypatch, task):
+    """A scripted episode under "wide" variation, every observation and ``info`` (the force statistics
+    included) bit for bit, with the compiled loops and with ``LEROBOT_FORCEMAP_NUMPY_ENV=1``."""
+    episodes = []
+    for numpy_path in (False, True):
+        if numpy_path:
+            monkeypatch.setenv(forces.NUMPY_ENV, "1")
+        env = E.make(task, render_mode=None, randomize="wide")
+        assert (env.unwrapped._forces.lib is None) == numpy_path
+        names = env.unwrapped.state_names["environment_state"]
+        demo = make_demonstrator(task, np.random.default_rng(1002), state_names=names)
+        steps = run_episode(
+            env, demo.act, 1002, reset=demo.reset, trace=lambda s: pickle.dumps((s.obs, s.next_info))
+        ).trace
+        episodes.append(steps)
+        env.close()
+    assert len(episodes[0]) > 50
+    for i, (a, b) in enumerate(zip(*episodes, strict=True)):
+        assert a == b, f"{task}: step {i} differs"
 
 
 def test_numpy_env_switches_the_compiled_loops_off(monkeypatch):
