@@ -222,10 +222,9 @@ class PegInHoleTask(ForceTask):
         self.lateral = math.sqrt(off.dot(off))  # np.linalg.norm of a vector: the same dot and root
         bottom = disc[2] - RING_HALF_THICK
         self.depth = float(max(0.0, top[2] - bottom)) if self.lateral <= RING_INNER else 0.0
-        found = sd[:, self._disc_found].tolist()  # per physics step: the disc touches the robot
-        last_held = max((i for i, v in enumerate(found) if v != 0), default=-1)
-        n_free_tail = len(found) - last_held - 1
-        if n_free_tail == len(found):
+        held = np.flatnonzero(sd[:, self._disc_found])  # the physics steps where the disc touches the robot
+        n_free_tail = len(sd) - 1 - int(held[-1]) if len(held) else len(sd)
+        if n_free_tail == len(sd):
             self.released_time += len(sd) * self.model.opt.timestep
         else:
             self.released_time = n_free_tail * self.model.opt.timestep
