@@ -117,16 +117,14 @@ class BlockForces:
     ) -> None:
         """The payload and tare of the episode's F/T sensor, the limits of the contact force and each
         fingertip force (N; inf: none), and the statistics :meth:`add_to_stats` adds to."""
-        self.payload, self.bias_site = payload, np.asarray(bias_site, dtype=float)
-        self.limits = np.ascontiguousarray(limits, dtype=float)
-        self.stats = stats
+        self.payload, self.stats = payload, stats
+        self.bias_site[:], self.limits[:] = bias_site, limits  # in place: the C loops' plan points at them
         if self.lib is not None:
             plan = self._plan
             plan.max_norm, plan.sum_norm = stats.max_norm.ctypes.data, stats.sum_norm.ctypes.data
             plan.max_abs, plan.sum_abs = stats.max_abs.ctypes.data, stats.sum_abs.ctypes.data
+            plan.mg = payload.mass * GRAVITY
             self._cross_com_t = payload.cross_com_t  # the NumPy path's operand, layout and all
-            self._bias[:], self._limits[:] = self.bias_site, self.limits
-            self._plan.mg = payload.mass * GRAVITY
 
     def __call__(self, buf: np.ndarray) -> tuple[np.ndarray, np.ndarray, int | None]:
         """Forces ``(n, 9 + 3 n_fingers)``, norms ``(n, 1 + n_fingers)`` and the first row over a limit
@@ -193,15 +191,15 @@ class BlockForces:
         self._out, self._norms = np.empty((n_rows, dim)), np.empty((n_rows, 1 + self.n_fingers))
         gate = np.full(len(self.contact_cols) // 3, -1, dtype=np.int64)
         gate[self.held_pairs] = self.held_found_cols
-        self._bias, self._limits = np.zeros(6), np.zeros(1 + self.n_fingers)
         self._int_arrays = [  # kept alive with the plan that points at them
             _columns(c) for c in (self.quat_cols, self.wrench_cols, self.contact_cols, gate, self.finger_cols)
         ]
         qcols, wcols, ccols, gate, fcols = (a.ctypes.data for a in self._int_arrays)
         pointers = {
             name: getattr(self, "_" + name).ctypes.data
-            for name in ("bias", "limits", "rot", "fsite", "tsite", "tool", "rotated", "out", "norms")
+            for name in ("rot", "fsite", "tsite", "tool", "rotated", "out", "norms")
         }
+        pointers.update(bias=self.bias_site.ctypes.data, limits=self.limits.ctypes.data)
         alpha = self.filter.alpha
         self._plan = _Plan(
             buf=rows.ctypes.data, ns=ns, qcols=qcols, wcols=wcols, npairs=len(self._int_arrays[3]),

@@ -137,11 +137,6 @@ class ForceStats:
         self.max_abs, self.sum_abs = np.zeros((m, 3)), np.zeros((m, 3))
         self.count = 0
 
-    def reset(self) -> None:
-        for a in (self.max_norm, self.sum_norm, self.max_abs, self.sum_abs):
-            a.fill(0.0)
-        self.count = 0
-
     def update(self, force: np.ndarray, norm: np.ndarray | None = None) -> None:
         """Add the samples ``force (n, n_signals, 3)``; ``norm``: their :func:`force_norms` if known."""
         if len(force) == 0:
