@@ -343,7 +343,23 @@ class _ReferenceGrasp:
 
 
 class _ReferencePegInHole:
-    """``PegInHoleTask.update`` as it was."""
+    """``PegInHoleTask``'s step methods as they were."""
+
+    def peg_top_world(self) -> np.ndarray:
+        return self.model.body_pos[self._peg_body] + np.array([0.0, 0.0, peg_in_hole.PEG_HEIGHT])
+
+    def environment_state(self, data) -> np.ndarray:
+        disc_pos = data.qpos[self._disc_qpos : self._disc_qpos + 3]
+        disc_quat = data.qpos[self._disc_qpos + 3 : self._disc_qpos + 7]
+        return np.concatenate(
+            [
+                self.frame.pos_to_base(self.peg_top_world()),
+                self.frame.quat_to_base(np.array([1.0, 0, 0, 0])),
+                self.frame.pos_to_base(disc_pos),
+                self.frame.quat_to_base(disc_quat),
+                [self.depth],
+            ]
+        )
 
     def update(self, data, block: StepBlock) -> TaskStatus:
         sd = block.sensordata

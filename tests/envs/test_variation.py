@@ -72,3 +72,21 @@ def test_a_static_part_is_turned_from_its_nominal_orientation_every_episode():
         q = model.body_quat[model.body("button_base").id]
         np.testing.assert_allclose(q, [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)], atol=1e-9)
     env.close()
+
+
+def test_the_peg_top_follows_the_scene_every_episode():
+    """peg_in_hole reads its peg's top once per placement: the state and the success test see the peg
+    where this episode's draw (task's own, then "wide") put it."""
+    from lerobot_forcemap.envs.tasks.peg_in_hole import PEG_HEIGHT
+
+    env = E.make("peg_in_hole", randomize="wide", render_mode=None)
+    base = env.unwrapped
+    tops = []
+    for seed in (3, 4):
+        obs, _ = env.reset(seed=seed)
+        top = base.model.body_pos[base.model.body("peg").id] + [0.0, 0.0, PEG_HEIGHT]
+        np.testing.assert_array_equal(base.task_impl.peg_top_world(), top)
+        np.testing.assert_array_equal(obs["environment_state"][:3], top.astype(np.float32))
+        tops.append(top)
+    assert not np.allclose(tops[0], tops[1])
+    env.close()

@@ -168,6 +168,8 @@ class PegInHoleTask(ForceTask):
         # the scene's count of contacts between the disc and the robot (a held body's sensor)
         self._disc_found = index.held_found["disc"]
         self._gravity = model.opt.gravity.copy()
+        self._dt = float(model.opt.timestep)
+        self._peg_quat_b = frame.quat_to_base(np.array([1.0, 0.0, 0.0, 0.0]))  # the peg's pose is upright
 
     def reset(self, model, data, rng: np.random.Generator) -> StartState:
         xy = np.array(PEG_NOMINAL_XY)
@@ -176,6 +178,7 @@ class PegInHoleTask(ForceTask):
             xy = xy + rng.uniform(-PEG_RANDOM_XY, PEG_RANDOM_XY, size=2)
             start = start + rng.uniform(-START_RANDOM, START_RANDOM, size=3)
         model.body_pos[self._peg_body] = [xy[0], xy[1], 0.0]
+        self.scene_moved(model, data)
         self.released_time = 0.0
         self.depth = 0.0
         self.lateral = np.inf
@@ -185,6 +188,11 @@ class PegInHoleTask(ForceTask):
             gripper=1.0,
             gripper_closure=RING_CLOSURE,
         )
+
+    def scene_moved(self, model, data) -> None:
+        # the peg stands still through an episode: its top is read once per placement, not per step
+        self._top = model.body_pos[self._peg_body] + np.array([0.0, 0.0, PEG_HEIGHT])
+        self._peg_state = np.concatenate([self.frame.pos_to_base(self._top), self._peg_quat_b])
 
     def before_settle(self, model, data) -> None:
         tcp = data.site_xpos[self.index.tcp_site]
@@ -199,35 +207,36 @@ class PegInHoleTask(ForceTask):
         model.opt.gravity[:] = self._gravity
 
     def peg_top_world(self) -> np.ndarray:
-        return self.model.body_pos[self._peg_body] + np.array([0.0, 0.0, PEG_HEIGHT])
+        """The centre of the peg's top (world frame, m) in this episode."""
+        return self._top.copy()
 
     def environment_state(self, data) -> np.ndarray:
-        disc_pos = data.qpos[self._disc_qpos : self._disc_qpos + 3]
-        disc_quat = data.qpos[self._disc_qpos + 3 : self._disc_qpos + 7]
-        return np.concatenate(
-            [
-                self.frame.pos_to_base(self.peg_top_world()),
-                self.frame.quat_to_base(np.array([1.0, 0, 0, 0])),
-                self.frame.pos_to_base(disc_pos),
-                self.frame.quat_to_base(disc_quat),
-                [self.depth],
-            ]
-        )
+        a = self._disc_qpos
+        out = np.empty(15)
+        out[:7] = self._peg_state
+        out[7:10] = self.frame.pos_to_base(data.qpos[a : a + 3])
+        out[10:14] = self.frame.quat_to_base(data.qpos[a + 3 : a + 7])
+        out[14] = self.depth
+        return out
 
     def update(self, data, block: StepBlock) -> TaskStatus:
         sd = block.sensordata
-        top = self.peg_top_world()
+        top = self._top
         disc = sd[-1, self._disc_pos]
         off = disc[:2] - top[:2]
         self.lateral = math.sqrt(off.dot(off))  # np.linalg.norm of a vector: the same dot and root
         bottom = disc[2] - RING_HALF_THICK
         self.depth = float(max(0.0, top[2] - bottom)) if self.lateral <= RING_INNER else 0.0
-        held = np.flatnonzero(sd[:, self._disc_found])  # the physics steps where the disc touches the robot
-        n_free_tail = len(sd) - 1 - int(held[-1]) if len(held) else len(sd)
-        if n_free_tail == len(sd):
-            self.released_time += len(sd) * self.model.opt.timestep
+        touching = sd[:, self._disc_found]  # per physics step: the disc's contacts with the robot
+        if touching[-1]:  # held at the end of the block (the common case): no search
+            n_free_tail = 0
         else:
-            self.released_time = n_free_tail * self.model.opt.timestep
+            held = np.flatnonzero(touching)
+            n_free_tail = len(sd) - 1 - int(held[-1]) if len(held) else len(sd)
+        if n_free_tail == len(sd):
+            self.released_time += len(sd) * self._dt
+        else:
+            self.released_time = n_free_tail * self._dt
         inserted = self.lateral <= SUCCESS_LATERAL and self.depth >= SUCCESS_DEPTH
         settled = self.released_time >= RELEASE_TIME
         return TaskStatus(
@@ -239,7 +248,7 @@ class PegInHoleTask(ForceTask):
     def episode_metrics(self) -> dict[str, float]:
         return {
             "insertion_depth": self.depth,
-            "disc_lateral_error": self.lateral if np.isfinite(self.lateral) else -1.0,
+            "disc_lateral_error": self.lateral if math.isfinite(self.lateral) else -1.0,
             "disc_released_s": self.released_time,
         }
 
