@@ -75,6 +75,13 @@ MAX_IMAGE_SIZE = 4096
 MAX_ACTION_MAGNITUDE = 1e6
 
 
+def _as_slice(index: np.ndarray) -> slice | np.ndarray:
+    """``index`` (ints) as the slice it spans when it is a run of consecutive ints (a view, no gather)."""
+    if len(index) and np.array_equal(index, np.arange(index[0], index[0] + len(index))):
+        return slice(int(index[0]), int(index[0]) + len(index))
+    return index
+
+
 def _norm(v: np.ndarray) -> float:
     """``float(np.linalg.norm(v))`` of a 1-D float64 vector (the same BLAS dot and square root)."""
     return math.sqrt(v.dot(v))
@@ -221,10 +228,13 @@ class ForceTaskEnv(gym.Env):
             if self._n_fingers
             else np.zeros(0, int)
         )
-        # cached views into MjData (stable for the data's lifetime)
-        self._mocap_pos = self.data.mocap_pos
-        self._mocap_quat = self.data.mocap_quat
-        self._sensordata = self.data.sensordata
+        # cached views into MjData (stable for the data's lifetime): a MuJoCo attribute makes a new array
+        d = self.data
+        self._mocap_pos, self._mocap_quat, self._sensordata = d.mocap_pos, d.mocap_quat, d.sensordata
+        self._qpos, self._ctrl = d.qpos, d.ctrl
+        self._arm_qpos, self._gripper_qpos = _as_slice(ix.arm_qpos), _as_slice(ix.gripper_qpos)
+        self._tcp_xpos, self._tcp_xmat = d.site_xpos[ix.tcp_site], d.site_xmat[ix.tcp_site]
+        self._target_pos = self._mocap_pos[ix.mocap]
         self._base_rot_inv = None if self.frame.is_identity else quat_to_matrix(self.frame.quat).T
         self._tool_ref_quat = np.asarray(self.robot.tool_down_quat, dtype=float)
         self._tcp_quat = np.empty(4)
@@ -412,7 +422,7 @@ class ForceTaskEnv(gym.Env):
             out=(stepper.target_pos, stepper.target_quat),
         )  # fmt: skip
         lo, hi = self.index.gripper_ctrlrange
-        d.ctrl[self.index.gripper_actuator] = lo + grip * (hi - lo)
+        self._ctrl[self.index.gripper_actuator] = lo + grip * (hi - lo)
         buf = stepper.run()
         forces, norms, stop_at = self._forces(buf)
         n = self.n_substeps if stop_at is None else self._protective_stop_at(stop_at)
@@ -499,16 +509,16 @@ class ForceTaskEnv(gym.Env):
         return self.frame.pos_to_base(d.site_xpos[ix.tcp_site]), self._align(self.frame.quat_to_base(q))
 
     def _observation(self) -> dict[str, Any]:
-        d, ix = self.data, self.index
-        n_arm = len(ix.arm_qpos)
+        d, qpos = self.data, self._qpos
+        n_arm = len(self.index.arm_qpos)
         agent_pos = np.empty(n_arm + 1, dtype=np.float32)
-        agent_pos[:n_arm] = d.qpos[ix.arm_qpos]
-        agent_pos[n_arm] = self.robot.gripper.opening(d.qpos[ix.gripper_qpos])
+        agent_pos[:n_arm] = qpos[self._arm_qpos]
+        agent_pos[n_arm] = self.robot.gripper.opening(qpos[self._gripper_qpos])
         ee_pose = np.empty(7, dtype=np.float32)
         if self.frame.is_identity:  # tcp_pose without its copies
             q = self._tcp_quat
-            mujoco.mju_mat2Quat(q, d.site_xmat[ix.tcp_site])
-            ee_pose[:3] = d.site_xpos[ix.tcp_site]
+            mujoco.mju_mat2Quat(q, self._tcp_xmat)
+            ee_pose[:3] = self._tcp_xpos
             ee_pose[3:] = -q if q.dot(self._tool_ref_quat) < 0 else q
         else:
             ee_pose[:3], ee_pose[3:] = self.tcp_pose()
@@ -549,9 +559,7 @@ class ForceTaskEnv(gym.Env):
             "n_clipped_steps": self._n_clipped,
             # TCP to its (interpolated) target after the step, m: F/K in contact by design; in free space
             # the arm's own error (the Gen3's posture springs, a target beyond reach), which no clip flags
-            "tracking_error": _norm(
-                self.data.site_xpos[self.index.tcp_site] - self._mocap_pos[self.index.mocap]
-            ),
+            "tracking_error": _norm(self._tcp_xpos - self._target_pos),
             "elapsed_s": self._steps * self.control_dt,
         }
         if self.variation.wide:
