@@ -105,10 +105,12 @@ class Job:
 
 
 #: what a cached record depends on besides the datasets: the policy, the library (floor-0 modules, the
-#: math core, the skill, data and envs), the fit, the evaluation's records and actor, the jobs themselves
+#: math core, the skill, data and envs, the compiled loops' sources), the fit, the evaluation's records
+#: and actor, the jobs themselves
 FINGERPRINTED_CODE = (
     "lerobot_policy_forcemap/*.py",
     "lerobot_forcemap/*.py",
+    "lerobot_forcemap/**/*.c",
     "lerobot_forcemap/elmap/**/*.py",
     "lerobot_forcemap/segmentation/**/*.py",
     "lerobot_forcemap/skill/**/*.py",

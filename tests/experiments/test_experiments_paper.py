@@ -16,7 +16,7 @@ from experiments.paper.demos import (
     reanchor_actions,
     segmentation_score,
 )
-from experiments.paper.jobs import Job, JobStats, code_fingerprint, run_jobs
+from experiments.paper.jobs import FINGERPRINTED_CODE, Job, JobStats, code_fingerprint, run_jobs
 from experiments.paper.rollouts import fit_key
 from lerobot_forcemap import layout
 from lerobot_forcemap.executor import make_executor
@@ -95,6 +95,14 @@ def test_job_keys_and_validation():
     with pytest.raises(ValueError, match=r"Job.seeds: must be a non-empty list of integers, got \(\)"):
         Job("press", "x", "hybrid", 0, ())
     assert len(code_fingerprint()) == 10
+
+
+def test_the_fingerprint_covers_the_compiled_loops_sources():
+    """A C-only change re-runs the cached jobs too (the extension is rebuilt from these sources)."""
+    hashed = {
+        p.relative_to(REPO_ROOT).as_posix() for pattern in FINGERPRINTED_CODE for p in REPO_ROOT.glob(pattern)
+    }
+    assert {"lerobot_forcemap/elmap/_emkernel.c", "lerobot_forcemap/envs/_stepkernel.c"} <= hashed
 
 
 def test_demo_force_records_match_the_recorder_file():
