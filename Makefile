@@ -68,6 +68,7 @@ segmentation-experiment: venv
 
 lint: venv
 	$(PY) -m ruff check lerobot_forcemap lerobot_policy_forcemap lerobot_env_forcemap experiments benchmarks tests
+	$(PY) -m ruff format --check .
 
 clean:
 	rm -rf outputs .pytest_cache
