@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from experiments.paper.jobs import REPO_ROOT
 from lerobot_forcemap.evaluation.records import FORCE_KEYS
 from lerobot_forcemap.evaluation.stats import failure_counts
 
@@ -33,7 +34,12 @@ def learned_records(
             exp = "peg" if task == "peg_in_hole" else "table2"
             path = Path(learned_dir) / f"{task}__{method}.json"
             base = {"experiment": exp, "task": task, "method": method, "kind": "learned", "object": None}
-            pending = {**base, "label": f"{name} (lerobot-train)", "status": "pending", "source": str(path)}
+            pending = {
+                **base,
+                "label": f"{name} (lerobot-train)",
+                "status": "pending",
+                "source": _shown(path),
+            }
             if not path.is_file():
                 out.append(pending)
                 continue
@@ -44,6 +50,14 @@ def learned_records(
                 continue
             out.append(_done_record(base, name, path, doc, demos_by_task.get(task) or []))
     return out
+
+
+def _shown(path: Path) -> str:
+    """``path`` relative to the checkout where it lies in it: the results read the same from any clone."""
+    try:
+        return str(path.resolve().relative_to(REPO_ROOT))
+    except ValueError:
+        return str(path)
 
 
 def _done_record(
@@ -67,7 +81,7 @@ def _done_record(
         **base,
         "label": f"{name} (lerobot-train, {doc.get('train_steps', '?')} steps, all 10 demos{checked})",
         "status": "done",
-        "source": str(path),
+        "source": _shown(path),
         **summary,
         "train_steps": doc.get("train_steps"),
         "train_wall_time_s": doc.get("train_wall_time_s"),

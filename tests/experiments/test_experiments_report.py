@@ -195,3 +195,15 @@ def test_table2_and_grasp_tables_give_spreads_of_their_extra_columns():
         "success_rate": 1.0, "protective_stops": 0, "max_finger_force": {"mean": [10.0, 11.0, 12.0], "std": [1.0, 2.0, 3.0]},
     }  # fmt: skip
     assert "| 10.0 ± 1.0, 11.0 ± 2.0, 12.0 ± 3.0 |" in "\n".join(tables.grasp_md([grasp]))
+
+
+def test_learned_records_name_their_source_inside_the_checkout(tmp_path):
+    from experiments.paper.jobs import REPO_ROOT
+
+    recs = learned_rows.learned_records(REPO_ROOT / "results" / "learned", {})
+    assert {r["source"] for r in recs if r["task"] == "press"} == {
+        "results/learned/press__act.json",
+        "results/learned/press__diffusion.json",
+    }
+    outside = learned_rows.learned_records(tmp_path, {})  # no results there: pending, named as given
+    assert outside[0]["status"] == "pending" and outside[0]["source"] == str(tmp_path / "press__act.json")
