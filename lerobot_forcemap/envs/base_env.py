@@ -209,17 +209,15 @@ class ForceTaskEnv(gym.Env):
         """sensordata columns and MjData views the step reads (looked up once)."""
         ix = self.index
         self._n_fingers = len(ix.finger_sensors)
-        self._wrench_cols = np.r_[
-            ix.wrist_force.start : ix.wrist_force.stop, ix.wrist_torque.start : ix.wrist_torque.stop
-        ]
-        if ix.wrist_torque.start == ix.wrist_force.stop:  # adjacent (build_scene adds them so): a view
-            self._wrench_cols = slice(ix.wrist_force.start, ix.wrist_torque.stop)
+        # adjacent force and torque columns (build_scene adds them so) read as a view
+        self._wrench_cols = _as_slice(
+            np.r_[ix.wrist_force.start : ix.wrist_force.stop, ix.wrist_torque.start : ix.wrist_torque.stop]
+        )
         self._contact_cols = ix.contact_columns
-        # contact pairs of a held body, and the column saying whether that body touches the robot
+        # contact pairs of a held body (the last pairs in scene order: gated in place without a gather),
+        # and the column saying whether that body touches the robot
         held = [i for i, b in enumerate(ix.contact_held) if b is not None]
-        self._held_pairs = np.array(held, dtype=int)
-        if held and held == list(range(held[0], len(ix.contact_held))):  # the last pairs (scene order)
-            self._held_pairs = slice(held[0], None)  # gated in place without a gather
+        self._held_pairs = _as_slice(np.array(held, dtype=int))
         self._held_found_cols = np.array(
             [ix.held_found[b] for b in ix.contact_held if b is not None], dtype=int
         )
