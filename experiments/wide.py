@@ -106,13 +106,21 @@ def with_set(label: str, extra: tuple[str, ...] | list[str]) -> str:
     return f"{label} + --set {' '.join(extra)}" if extra else label
 
 
+def defaults_label() -> str:
+    """The defaults row's name, with the package's force budget."""
+    budget = make_config(overrides=()).force_budget
+    return (
+        f"package defaults (k = 0.8 K_demo, force feedback {budget:g} N + depth, rules on slanted contacts)"
+    )
+
+
 def force_task_cells(task: str, n: int, others: int, demos, extra: tuple[str, ...] = ()) -> list[Cell]:
     """The wide rows of press, erase or peg_in_hole; ``extra``: ``--set`` settings of the defaults rows."""
     env = {"randomize": "wide"}
     fm = "forcemap"
     no_fb = (*extra, "force_feedback=false")
     return [
-        _row("wide", task, "defaults", with_set("package defaults (k = 0.8 K_demo, force feedback 6.5 N + depth)", extra),
+        _row("wide", task, "defaults", with_set(defaults_label(), extra),
              _jobs(task, "defaults", fm, n, WIDE_SEED0, demos, overrides=extra, env=env), {"overrides": list(extra)}),
         _row("wide", task, "defaults_no_feedback", with_set("package defaults without the feedback", extra),
              _jobs(task, "defaults_no_feedback", fm, others, WIDE_SEED0, demos, overrides=no_fb, env=env),

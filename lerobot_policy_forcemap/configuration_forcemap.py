@@ -178,8 +178,9 @@ class ForceMapConfig(PreTrainedConfig):
             measured reaction stays near min(force_budget, the demonstrated force) (a bounded
             admittance, ``lerobot_forcemap.skill.feedback``; needs ``force_key`` in the observation).
         force_budget: N, the force the feedback holds in contact (F_ref = min(budget, the demonstrated
-            force)), and where the depth law reads the demonstration's depth (sim default 6.5 N: the
-            press button's switch force at its nominal spring; erase needs 3 N on the felt).
+            force)), and where the depth law reads the demonstration's depth (6.25 N: just under the
+            press button's switch force at its nominal spring, which the depth law's overshoot passes;
+            erase needs 3 N on the felt).
         feedback_lift_gain, feedback_push_gain: m/(N s), lifting above / pushing below the reference;
             feedback_deadband: N; feedback_max_push: m, the most the feedback may press past the map.
         feedback_depth_gain: 1/s, > 0: while pressing into an expected contact, the TCP is driven to
@@ -187,18 +188,18 @@ class ForceMapConfig(PreTrainedConfig):
             force_budget (a stiffer object gets the force that takes, up to the demonstrated one);
             reads ``robot_pose_key``. 0: the force law alone (the budget bounds the force).
         approach_speed, approach_zone: m/s, > 0 (with force_feedback): within approach_zone m of
-            where the demonstration made contact (before or past it), the skill's clock slows so that
-            the target moves into that contact at most approach_speed, until a force is felt
-            (``lerobot_forcemap.skill.approach``): a touch-down gentle under any controller. 0 (the
-            default): off; 0.01 is the measured setting (docs/policy.md: it costs the presses of the
-            real recordings' twins their switch).
-        contact_yield, contact_yield_max: > 0 (with force_feedback): where contact is expected and the
-            measured force is slanted more than 27 degrees from the contact normal, once its part
-            across the normal, a step ahead at its current rise, exceeds contact_yield x F_ref, the
-            map's own step into the measured force is held back (at most contact_yield_max m,
-            returning with 0.3 s once the force allows; ``lerobot_forcemap.skill.contact_yield``):
-            a peg pressed on a rim no longer presses harder with a stiffer controller. 0 (the
-            default): off; 0.25 is the measured setting.
+            where the demonstration made contact (before or past it), if the map meets that contact
+            more than 27 degrees off the contact normal, the skill's clock slows so that the target
+            moves into it at most approach_speed, until a force is felt
+            (``lerobot_forcemap.skill.approach``): a slanted touch-down gentle under any controller.
+            A touch-down along the normal is the depth law's. 0: off.
+        contact_yield, contact_yield_max: > 0 (with force_feedback): in a contact met at a slant
+            (as above) where the measured force is slanted more than 27 degrees from the contact
+            normal, once its part across the normal, a step ahead at its current rise, exceeds
+            contact_yield x F_ref, the map's own step into the measured force is held back while
+            that step goes into the surface (at most contact_yield_max m, returning with 0.3 s once
+            the force allows; ``lerobot_forcemap.skill.contact_yield``): a peg pressed on a rim no
+            longer presses harder with a stiffer controller. 0: off.
         fps, n_segments, segment_n_nodes, segment_n_gripper_nodes, segment_anchors, env_state_names,
             dataset_tasks, demo_stiffness (N/m, 0: unknown), n_force_profile (frames of the force
             profile): filled in by the fit (leave them at their defaults); the checkpoint's
@@ -295,15 +296,15 @@ class ForceMapConfig(PreTrainedConfig):
 
     # ---- force feedback at execution
     force_feedback: bool = True
-    force_budget: float = 6.5
+    force_budget: float = 6.25
     feedback_lift_gain: float = 2e-3
     feedback_push_gain: float = 1e-2
     feedback_deadband: float = 0.5
     feedback_max_push: float = 0.015
     feedback_depth_gain: float = 4.0
-    approach_speed: float = 0.0
+    approach_speed: float = 0.01
     approach_zone: float = 0.01
-    contact_yield: float = 0.0
+    contact_yield: float = 0.25
     contact_yield_max: float = 0.01
 
     # ---- LeRobot plumbing

@@ -345,6 +345,7 @@ class ForceMapPolicy(PreTrainedPolicy):
         t = self._t
         actions = run.actions_at(np.array([t]))[:, 0]
         feedback = self._feedback_for(batch, len(actions))
+        rate = 1.0
         if feedback is not None:
             cfg, n = self.config, len(actions)
             measured = None
@@ -352,10 +353,17 @@ class ForceMapPolicy(PreTrainedPolicy):
                 measured = _rows(batch, cfg.robot_pose_key, n)[:, :3]
             planned = actions[:, :3].copy()
             actions[:, :3] = feedback.step(planned, _rows(batch, cfg.force_key, n), measured, t=t)
-            if cfg.contact_yield > 0:
+            approach = self._approach_for(feedback)
+            if approach is not None:
+                rate = approach.rate(
+                    lambda ts: run.actions_at(ts)[:, :, :3], t, 1.0 / self.clock_hz, feedback.felt
+                )
+            if cfg.contact_yield > 0 and approach is not None:
                 rule = self._yield_for(feedback)
-                actions[:, :3] += rule.step(planned, actions[:, :3], feedback.force, feedback.reference(t))
-        self._t = t + self._rate(run, feedback, t) / self.clock_hz
+                actions[:, :3] += rule.step(
+                    planned, actions[:, :3], feedback.force, feedback.reference(t), approach.slanted_at(t)
+                )
+        self._t = t + rate / self.clock_hz
         return _tensor(actions, _any_tensor(batch))
 
     def _feedback_for(self, batch: dict[str, Any], n: int) -> ForceFeedback | None:
@@ -404,21 +412,24 @@ class ForceMapPolicy(PreTrainedPolicy):
             )
         return self._yield
 
-    def _rate(self, run: SkillRun, feedback: ForceFeedback | None, t: float) -> float:
-        """The skill clock's rate for the step from ``t``: below 1 while the approach rule slows a
-        touch-down (``approach_speed`` > 0 with the force feedback running; made on first use)."""
+    def _approach_for(self, feedback: ForceFeedback) -> ApproachLimit | None:
+        """This episode's touch-downs (made on first use): the approach rule's clock (``approach_speed``)
+        and which contacts are slanted, which the yield rule reads (``lerobot_forcemap.skill.approach``).
+        None with both rules off, and for a demonstration that moved its object (as for the depth law):
+        it had no touch-down to slow, and its object is meant to give way, not to be yielded to."""
         cfg = self.config
-        if feedback is None or cfg.approach_speed <= 0 or feedback.moved_object:
-            return 1.0  # a demonstration that moved its object had no touch-down to slow
+        if feedback.moved_object or (cfg.approach_speed <= 0 and cfg.contact_yield <= 0):
+            return None
         if self._approach is None:
             profile = feedback.profile
-            starts = contact_starts(profile.along, cfg.fps, profile.contact_force)
             self._approach = ApproachLimit(
-                starts, profile.normal, cfg.approach_speed, cfg.approach_zone, len(feedback.u)
+                contact_starts(profile.along, cfg.fps, profile.contact_force),
+                profile.normal,
+                cfg.approach_speed,
+                cfg.approach_zone,
+                len(feedback.u),
             )
-        return self._approach.rate(
-            lambda ts: run.actions_at(ts)[:, :, :3], t, 1.0 / self.clock_hz, feedback.felt
-        )
+        return self._approach
 
     def _run_for(self, batch: dict[str, Any]) -> SkillRun:
         """This episode's run: placed on its first observation, re-anchored as its segments start."""

@@ -160,7 +160,7 @@ class FeedbackGains:
     """The law's settings (module docstring): N, m, s; gains m/(N s), ``depth_gain`` 1/s (0: the
     force law alone, the budget a hard bound)."""
 
-    budget: float = 6.5
+    budget: float = 6.25
     lift_gain: float = 2e-3
     push_gain: float = 1e-2
     deadband: float = 0.5

@@ -24,6 +24,19 @@ def _scene(button=(0.5, 0.0, 0.027), tcp=(0.42, 0.0, 0.15), batch=1):
     return obs
 
 
+#: a contact normal 53 degrees off the press's vertical touch-down (the peg's): the rules' slanted case
+TILTED = np.array([-0.76, 0.24, 0.60]) / np.linalg.norm([-0.76, 0.24, 0.60])
+
+
+def _tilted(policy):
+    """``policy`` with its demonstrated contact normal set to ``TILTED``."""
+    import torch
+
+    normal = policy.get_buffer("force_normal")
+    normal.copy_(torch.as_tensor(TILTED, dtype=normal.dtype))
+    return policy
+
+
 @pytest.fixture(scope="module")
 def policy(press_checkpoint):
     from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
@@ -58,28 +71,33 @@ def test_select_action_streams_the_reproduction_and_matches_chunks(policy):
     torch.testing.assert_close(steps, chunk, rtol=0, atol=0)
     # the first target is the robot's current pose (start re-anchoring)
     np.testing.assert_allclose(steps[0, 0, :3].numpy(), [0.42, 0.0, 0.15], atol=1e-6)
-    # after the demonstration's duration the final pose is held (the clock on calls alone: no force
-    # is ever felt here, so the approach rule would slow the whole zone)
+    # after the demonstration's duration the final pose is held (the clock on calls alone: the press
+    # touches down along its normal, which the approach rule leaves at the map's pace)
     policy.reset()
-    policy.config.approach_speed = 0.0
     n = int(round(sum(policy.durations.tolist()) * policy.config.fps)) + 5
     acts = torch.stack([policy.select_action(obs) for _ in range(n + 3)])
-    policy.config.approach_speed = 0.01
     torch.testing.assert_close(acts[-1], acts[-3], rtol=0, atol=0)
 
 
 def test_the_approach_rule_slows_the_touch_down_and_only_it(press_checkpoint):
-    """Near the demonstrated contact the target comes down at most approach_speed; the skill ends the
-    same, later (no force is felt: the rule holds through the whole zone)."""
+    """Met at a slant from the demonstrated normal, near the demonstrated contact the target comes down
+    at most approach_speed; the skill ends the same, later (no force is felt: the rule holds through
+    the whole zone). Met along the normal (the press as demonstrated), the rule leaves it alone."""
     import torch
 
     from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
 
     obs = _scene()
-    ruled, plain = (ForceMapPolicy.from_pretrained(press_checkpoint) for _ in range(2))
+    as_fitted, plain = (ForceMapPolicy.from_pretrained(press_checkpoint) for _ in range(2))
     plain.config.approach_speed = 0.0
-    ruled.config.approach_speed = 0.01  # opt-in (off by default)
+    assert as_fitted.config.approach_speed == 0.01  # the default
     n = int(round(sum(plain.durations.tolist()) * plain.config.fps)) + 5
+    a = torch.stack([plain.select_action(obs) for _ in range(n)])
+    torch.testing.assert_close(
+        torch.stack([as_fitted.select_action(obs) for _ in range(n)]), a, rtol=0, atol=0
+    )
+    ruled, plain = (_tilted(ForceMapPolicy.from_pretrained(press_checkpoint)) for _ in range(2))
+    plain.config.approach_speed = 0.0
     a = torch.stack([plain.select_action(obs) for _ in range(n)])[:, 0].numpy()
     b = torch.stack([ruled.select_action(obs) for _ in range(n + 80)])[:, 0].numpy()
     dt = 1.0 / ruled.clock_hz
@@ -440,9 +458,11 @@ def test_a_refused_observation_at_a_segment_start_still_reanchors_on_retry(press
 
 
 def test_the_yield_rule_holds_back_the_maps_press_into_a_slanted_force(press_checkpoint):
-    """With a steady 10 N reaction 37 degrees off the press's (vertical) normal, the targets in the
-    demonstrated contact are moved back along that force from the plain policy's (the map's step into
-    it held back, at most contact_yield_max); chunks carry the offset too."""
+    """With a steady 10 N reaction 51 degrees off a contact normal that is itself 53 degrees off the
+    press's vertical touch-down (the peg's case), the targets in the demonstrated contact are moved back
+    along that force from the plain policy's (the map's step into it held back, at most
+    contact_yield_max); chunks carry the offset too. With the press's own normal (its touch-down
+    along it) nothing is held back."""
     import torch
 
     from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
@@ -450,13 +470,22 @@ def test_the_yield_rule_holds_back_the_maps_press_into_a_slanted_force(press_che
     obs = _scene()
     unit = np.array([0.0, 0.6, 0.8])
     pressed = {**obs, "observation.force": torch.tensor([[*(10.0 * unit), 0.0, 0.0, 0.0]])}
-    ruled, plain = (ForceMapPolicy.from_pretrained(press_checkpoint) for _ in range(2))
+    n = int(round(sum(ForceMapPolicy.from_pretrained(press_checkpoint).durations.tolist()) * 20.0))
+    steps = [obs, obs] + [pressed] * (n - 2)  # the first two observations tare the sensor
+    along_n, plain = (ForceMapPolicy.from_pretrained(press_checkpoint) for _ in range(2))
+    plain.config.contact_yield = 0.0
+    assert along_n.config.contact_yield == 0.25  # the default
+    torch.testing.assert_close(
+        torch.stack([along_n.select_action(o) for o in steps]),
+        torch.stack([plain.select_action(o) for o in steps]),
+        rtol=0,
+        atol=0,
+    )
+    ruled, plain = (_tilted(ForceMapPolicy.from_pretrained(press_checkpoint)) for _ in range(2))
     for p in (ruled, plain):
         p.config.approach_speed = 0.0
     plain.config.contact_yield = 0.0
-    ruled.config.contact_yield = 0.25  # opt-in (off by default)
-    n = int(round(sum(plain.durations.tolist()) * plain.config.fps))
-    steps = [obs, obs] + [pressed] * (n - 2)  # the first two observations tare the sensor
+    assert plain.config.fps == 20.0
     a = torch.stack([plain.select_action(o) for o in steps])[:, 0, :3].numpy()
     b = torch.stack([ruled.select_action(o) for o in steps])[:, 0, :3].numpy()
     back = (b - a) @ unit

@@ -2,7 +2,8 @@
 the demonstrated normal (a peg on the hole's rim), the map's press is held back after the touch
 whatever the controller's stiffness; its motion along the surface is kept, the feedback's own
 correction is not held back, a force along the normal is left to the feedback, and the offset returns
-to the map once the force is gone."""
+to the map once the force is gone. Only in a contact met at a slant, and only while the map's step
+goes into the surface (a wipe's sliding against friction is not held back)."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from lerobot_forcemap.skill.contact_yield import TAU, ContactYield
 
 DT = 0.05
 F_REF = np.array([6.5])
+YES = np.array([True])
 #: the peg demonstration's normal: 53 degrees off the vertical
 TILTED = np.array([-0.76, 0.24, 0.60]) / np.linalg.norm([-0.76, 0.24, 0.60])
 UP = np.array([0.0, 0.0, 1.0])
@@ -21,7 +23,9 @@ def _rule(level: float = 0.25, normal=TILTED) -> ContactYield:
     return ContactYield(normal, level, 0.01, 1.0, DT, 1)
 
 
-def _press(k_ctrl: float, level: float, steps: int = 12, give_way_at: int | None = None, normal=TILTED):
+def _press(
+    k_ctrl: float, level: float, steps: int = 12, give_way_at: int | None = None, normal=TILTED, slanted=YES
+):
     """The map descends 3 mm per step along -z (and 1 mm per step along +x) onto a rigid rim at z = 0
     held by a controller of stiffness ``k_ctrl`` N/m (reaction on the robot: +z); from step
     ``give_way_at`` on the rim is gone. Returns the forces (N) and the offsets ``(steps, 3)`` m."""
@@ -30,7 +34,7 @@ def _press(k_ctrl: float, level: float, steps: int = 12, give_way_at: int | None
     forces, offsets = [], []
     for k in range(steps):
         target = np.array([[0.001 * k, 0.0, 0.0045 - 0.003 * k]])
-        target = target + rule.step(target, target, f, F_REF)
+        target = target + rule.step(target, target, f, F_REF, slanted)
         rim = give_way_at is None or k < give_way_at
         f = np.array([[0.0, 0.0, k_ctrl * max(-target[0, 2], 0.0) if rim else 0.0]])
         forces.append(f[0, 2])
@@ -67,13 +71,13 @@ def test_what_the_feedback_takes_back_or_pushes_is_not_held_back():
     for k in range(4):  # the map steps 3 mm down; the feedback takes 1 mm of it back, then all of it
         planned = np.array([[0.0, 0.0, -0.003 * k]])
         corrected = planned + np.array([[0.0, 0.0, 0.001 * k if k < 3 else 0.003 * k]])
-        rule.step(planned, corrected, f, F_REF)
+        rule.step(planned, corrected, f, F_REF, YES)
         if k == 2:
             np.testing.assert_allclose(rule.w[0], [0.0, 0.0, 0.004])  # 2 mm a step, twice
     np.testing.assert_allclose(rule.w[0], [0.0, 0.0, 0.004])  # the step all taken back: no more
     rule = _rule()
     for k in range(4):  # the map is still, the feedback pushes in: its push is its own
-        rule.step(np.zeros((1, 3)), np.array([[0.0, 0.0, -0.002 * k]]), f, F_REF)
+        rule.step(np.zeros((1, 3)), np.array([[0.0, 0.0, -0.002 * k]]), f, F_REF, YES)
     np.testing.assert_array_equal(rule.w, 0.0)
 
 
@@ -87,7 +91,23 @@ def test_no_expected_contact_or_no_level_means_off():
     rule = _rule()
     for k in range(5):
         target = np.array([[0.0, 0.0, -0.003 * k]])
-        w = rule.step(target, target, np.array([[0.0, 0.0, 20.0]]), np.array([0.5]))
+        w = rule.step(target, target, np.array([[0.0, 0.0, 20.0]]), np.array([0.5]), YES)
         np.testing.assert_array_equal(w, 0.0)
     _, offsets = _press(6000.0, 0.0)
     np.testing.assert_array_equal(offsets, 0.0)
+
+
+def test_a_contact_met_along_the_normal_is_left_to_the_feedback():
+    _, offsets = _press(6000.0, 0.25, slanted=np.array([False]))
+    np.testing.assert_array_equal(offsets, 0.0)
+
+
+def test_a_wipe_sliding_against_friction_is_not_held_back():
+    """The map slides 3 mm a step along +x on a board (n up) while friction tilts the reaction 50
+    degrees back (a tool that sticks for a moment): its step goes along the surface, not into it."""
+    rule = _rule(normal=UP)
+    f = np.array([[-6.0, 0.0, 5.0]])  # friction against +x, larger than the 27-degree slant
+    for k in range(6):
+        target = np.array([[0.003 * k, 0.0, -0.0002 * k]])  # a little into the board as it goes
+        rule.step(target, target, f, F_REF, YES)
+    np.testing.assert_array_equal(rule.w, 0.0)
