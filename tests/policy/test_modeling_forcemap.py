@@ -111,6 +111,24 @@ def test_the_approach_rule_slows_the_touch_down_and_only_it(press_checkpoint):
     assert len(b) - np.argmax(np.all(np.abs(b - b[-1]) < 1e-9, axis=1)) < 80
 
 
+def test_a_demonstration_that_moved_its_object_gets_neither_rule(press_checkpoint):
+    """With feedback_max_push below the press's depth at the budget the demonstration counts as having
+    moved its object (grasp_push's book): even met at a slant, the touch-down keeps the map's pace."""
+    import torch
+
+    from lerobot_policy_forcemap.modeling_forcemap import ForceMapPolicy
+
+    obs = _scene()
+    moved, plain = (_tilted(ForceMapPolicy.from_pretrained(press_checkpoint)) for _ in range(2))
+    for p in (moved, plain):
+        p.config.feedback_max_push = 0.001
+    plain.config.approach_speed = plain.config.contact_yield = 0.0
+    n = int(round(sum(plain.durations.tolist()) * plain.config.fps)) + 5
+    a = torch.stack([plain.select_action(obs) for _ in range(n)])
+    torch.testing.assert_close(torch.stack([moved.select_action(obs) for _ in range(n)]), a, rtol=0, atol=0)
+    assert moved._feedback.moved_object and moved._approach is None
+
+
 def test_batch_elements_are_placed_in_their_own_scenes(policy):
     import torch
 
